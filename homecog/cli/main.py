@@ -1,0 +1,267 @@
+"""The ``homecog`` command (SPEC §11).
+
+Every command takes ``--home`` (a built-in name or a path) and ``--json``. Bad input
+prints one line on stderr and exits with status 2; nothing is overwritten.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+import tempfile
+from pathlib import Path
+from typing import Annotated, Any
+
+import typer
+from rich.table import Table
+
+# Typer 0.29 carries its own copy of click; its exceptions live there (typer is pinned).
+from typer._click import exceptions as click_errors
+
+from homecog.cli.output import emit_json, progress_bar, stdout
+from homecog.errors import HomecogError
+from homecog.home import Home, load_home
+from homecog.home.loader import canonical
+from homecog.home.model import format_number
+
+app = typer.Typer(
+    name="homecog",
+    help="Service cognition for home service robots: learn which services a user needs.",
+    no_args_is_help=True,
+    add_completion=False,
+    pretty_exceptions_enable=False,
+)
+home_app = typer.Typer(help="Show or check home definitions.", no_args_is_help=True)
+app.add_typer(home_app, name="home")
+
+HomeOption = Annotated[str, typer.Option("--home", help="A built-in home name or the path of a YAML file.")]
+JsonOption = Annotated[bool, typer.Option("--json", help="Print one JSON object on stdout.")]
+
+
+class UsageProblemError(HomecogError):
+    """A bad command-line argument."""
+
+
+# -- homecog home ------------------------------------------------------------------------------
+def _when(home: Home, cond: Any) -> str:
+    parts = [
+        f"{home.features[f].name}∈{{{', '.join(home.features[f].values[k] for k in sorted(codes))}}}"
+        for f, codes in cond.features
+    ]
+    parts += [
+        f"{home.devices[d].name}={'/'.join('on' if s else 'off' for s in sorted(states))}"
+        for d, states in cond.devices
+    ]
+    return " and ".join(parts) if parts else "always"
+
+
+def home_summary(home: Home) -> dict[str, Any]:
+    """Sizes of a home's spaces (used by ``home show`` and ``home check``)."""
+    from homecog.environment.core import Core
+
+    core = Core(home)
+    return {
+        "name": home.name,
+        "source": home.source,
+        "hash": home.content_hash,
+        "features": len(home.features),
+        "contexts": home.context_count,
+        "devices": len(home.devices),
+        "services": len(home.services),
+        "start_states": core.n_start_states(),
+        "states": core.n_states,
+        "q_table_bytes": core.table_bytes(),
+    }
+
+
+@home_app.command("show")
+def home_show(home: HomeOption = "paper", json: JsonOption = False) -> None:
+    """Print a home readably: features and bins, devices, services and rules."""
+    h = load_home(home)
+    if json:
+        emit_json({"summary": home_summary(h), "definition": canonical(h)})
+        return
+    s = home_summary(h)
+    stdout.print(f"[bold]{h.name}[/bold] ({h.source}) — {h.description or ''}")
+    stdout.print(
+        f"{s['contexts']:,} contexts × {2 ** s['devices']:,} device states = "
+        f"{s['start_states']:,} start states; {s['states']:,} states with pending needs; "
+        f"hash {h.content_hash[:12]}"
+    )
+
+    t = Table(title="Context features (code / normalized, as Table 1)", title_justify="left")
+    for col in ("feature", "kind", "values"):
+        t.add_column(col)
+    from homecog.home.encoding import coded
+
+    for f in h.features:
+        values = []
+        for k, v in enumerate(f.values):
+            code, norm = coded(f, k)
+            rng = f" {f.describe_bin(k)}" if f.bins else ""
+            values.append(f"{v}{rng} ({code}/{norm:.2g})")
+        t.add_row(f.name + (f" [{f.unit}]" if f.unit else ""), f.kind, "\n".join(values))
+    stdout.print(t)
+
+    t = Table(title="Devices (hardware code order)", title_justify="left")
+    for col in ("#", "device", "room", "switched", "comfort rules (first match wins)"):
+        t.add_column(col)
+    for i, (d, rules) in enumerate(zip(h.devices, h.comfort, strict=True)):
+        shown = "\n".join(f"{'on ' if r.want else 'off'} when {_when(h, r.when)}" for r in rules)
+        t.add_row(str(i + 1), d.name, d.room or "", "IoT" if d.iot else "by hand", shown or "don't care")
+    stdout.print(t)
+
+    t = Table(title="Services", title_justify="left")
+    for col in ("#", "service", "category", "effect", "needed when", "prohibited when"):
+        t.add_column(col)
+    for i, (sv, needs, prohibited) in enumerate(zip(h.services, h.needs, h.prohibited, strict=True)):
+        effect = ", ".join(f"{d}→{'on' if v else 'off'}" for d, v in sv.sets) or "interaction"
+        t.add_row(
+            str(i + 1),
+            sv.name,
+            sv.category,
+            effect,
+            "\n".join(_when(h, c) for c in needs) or "-",
+            "\n".join(_when(h, c) for c in prohibited) or "-",
+        )
+    stdout.print(t)
+    r = h.rewards
+    stdout.print(
+        f"Rewards: {format_number(r.terminal)}·terminal + {format_number(r.progress)}·progress "
+        f"+ {format_number(r.prohibited)}·prohibited, each ±{format_number(r.magnitude)}"
+    )
+
+
+@home_app.command("check")
+def home_check(
+    file: Annotated[str, typer.Argument(help="The home file to validate.")], json: JsonOption = False
+) -> None:
+    """Validate a home file; report its size and any start state that cannot reach its optimum."""
+    from homecog.environment.core import Core, solvable_start_states
+
+    h = load_home(file)
+    summary = home_summary(h)
+    solvable = solvable_start_states(Core(h).tables)
+    stuck = int((~solvable).sum())
+    summary["unsolvable_start_states"] = stuck
+    if json:
+        emit_json({"ok": True, **summary})
+        return
+    stdout.print(
+        f"ok: {h.source}: home '{h.name}': {summary['features']} features, "
+        f"{summary['contexts']:,} contexts, {summary['devices']} devices, "
+        f"{summary['services']} services, {summary['states']:,} states"
+    )
+    if stuck:
+        stdout.print(
+            f"warning: {stuck:,} of {summary['start_states']:,} start states cannot reach the "
+            "optimum without a prohibited or useless service (conflicting rules)"
+        )
+
+
+# -- homecog train -----------------------------------------------------------------------------
+def _check_writable(path: Path) -> None:
+    """Fail before the work, not after it, when ``path`` cannot be written."""
+    if path.is_dir():
+        raise UsageProblemError(f"--out {path}: is a directory")
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        with tempfile.NamedTemporaryFile(dir=path.parent, prefix=".homecog-check-"):
+            pass
+    except OSError as e:
+        raise UsageProblemError(f"--out {path}: cannot write there: {e.strerror}") from None
+
+
+@app.command()
+def train(
+    home: HomeOption = "paper",
+    episodes: Annotated[int | None, typer.Option(help="Episodes (default 4,000,000).")] = None,
+    seed: Annotated[int, typer.Option(help="Seed; a run is reproducible from it.")] = 0,
+    alpha: Annotated[float | None, typer.Option(help="Learning rate α (default 1.0).")] = None,
+    gamma: Annotated[float | None, typer.Option(help="Discount γ (default 0.2).")] = None,
+    epsilon_c: Annotated[float | None, typer.Option(help="ε_t = √(c/t); the paper's c = 2.")] = None,
+    max_steps: Annotated[int | None, typer.Option(help="Step limit of an episode (default 30).")] = None,
+    out: Annotated[Path | None, typer.Option(help="Where to save the Q table (default: the cache).")] = None,
+    json: JsonOption = False,
+) -> None:
+    """Learn the home's services by Sarsa and save the Q table."""
+    from dataclasses import replace
+
+    from homecog.environment.core import Core
+    from homecog.learning.sarsa import SarsaConfig
+    from homecog.learning.sarsa import train as run_sarsa
+    from homecog.paths import q_table_path
+
+    h = load_home(home)
+    given = {
+        "episodes": episodes,
+        "seed": seed,
+        "alpha": alpha,
+        "gamma": gamma,
+        "epsilon_c": epsilon_c,
+        "max_steps": max_steps,
+    }
+    config = replace(SarsaConfig(), **{k: v for k, v in given.items() if v is not None})
+    try:
+        config.validate()
+    except ValueError as e:
+        raise UsageProblemError(str(e)) from None
+    path = out if out is not None else q_table_path(h)
+    _check_writable(path)
+    core = Core(h)
+    with progress_bar(f"Sarsa on {h.name}", config.episodes) as update:
+        result = run_sarsa(h, config, core=core, progress=update)
+    result.q_table.save(path)
+    data = {
+        "episodes": result.episodes,
+        "steps": result.steps,
+        "seconds": round(result.seconds, 3),
+        "steps_per_second": round(result.steps_per_second),
+        "greedy_optimal_rate": result.greedy_optimal_rate,
+        "q_path": str(path),
+        "home": h.name,
+        "home_hash": h.content_hash,
+    }
+    if json:
+        emit_json(data)
+        return
+    stdout.print(
+        f"trained {h.name}: {result.episodes:,} episodes, {result.steps:,} steps in "
+        f"{result.seconds:.1f} s ({result.steps_per_second / 1e6:.2f} M steps/s)"
+    )
+    stdout.print(
+        f"greedy-optimal rate {result.greedy_optimal_rate:.6f} over {core.n_start_states():,} start states"
+    )
+    stdout.print(f"Q table: {path}")
+
+
+# -- entry point -------------------------------------------------------------------------------
+def main(argv: list[str] | None = None) -> int:
+    """Run the command line; errors become one line on stderr and exit status 2."""
+    args = sys.argv[1:] if argv is None else argv
+    try:
+        result = app(args=args, prog_name="homecog", standalone_mode=False)
+    except HomecogError as e:
+        print(f"homecog: error: {e}", file=sys.stderr)
+        return 2
+    except click_errors.NoArgsIsHelpError:
+        return 2  # the help was printed
+    except click_errors.UsageError as e:
+        where = f"{e.ctx.command_path}: " if e.ctx else ""
+        print(f"homecog: error: {where}{e.format_message()}".replace("\n", " "), file=sys.stderr)
+        return 2
+    except typer.Abort:
+        print("homecog: aborted", file=sys.stderr)
+        return 130
+    except KeyboardInterrupt:
+        print("homecog: interrupted", file=sys.stderr)
+        return 130
+    except BrokenPipeError:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        return 1
+    return result if isinstance(result, int) else 0
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

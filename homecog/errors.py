@@ -1,0 +1,31 @@
+"""The error hierarchy of homecog.
+
+Every error a user can cause derives from :class:`HomecogError`; the command line
+prints its message as one line and exits non-zero, never with a traceback.
+"""
+
+from __future__ import annotations
+
+
+class HomecogError(Exception):
+    """Base class of every error homecog raises on bad input or state."""
+
+
+class HomeFileError(HomecogError, ValueError):
+    """A home definition that cannot be read or is inconsistent.
+
+    The message names the file, the key path and what was expected, e.g.
+    ``paper.yaml: comfort.lamp[2].when.behavior: unknown value 'nap'; expected one of read, ...``.
+    """
+
+
+class ContextError(HomecogError, ValueError):
+    """A context (readings and device states) that does not fit the home."""
+
+
+class QTableError(HomecogError):
+    """A Q table that cannot be read, or that was made for another home."""
+
+
+class HomeTooLargeError(HomecogError):
+    """A home whose state space does not fit a tabular Q table."""

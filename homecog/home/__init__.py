@@ -1,0 +1,21 @@
+"""The home definition stage: features, devices, services and common-sense rules."""
+
+from __future__ import annotations
+
+from homecog.home.loader import builtin_homes, content_hash, is_compatible, load_home, load_home_text
+from homecog.home.model import ComfortRule, Condition, Device, Feature, Home, Rewards, Service
+
+__all__ = [
+    "ComfortRule",
+    "Condition",
+    "Device",
+    "Feature",
+    "Home",
+    "Rewards",
+    "Service",
+    "builtin_homes",
+    "content_hash",
+    "is_compatible",
+    "load_home",
+    "load_home_text",
+]

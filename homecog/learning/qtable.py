@@ -1,0 +1,129 @@
+"""The Q table and its file: the learned values, tagged with the home's content hash.
+
+A Q table is refused for another home: loading checks the hash of what learning
+depends on (:func:`homecog.home.content_hash`). Files are written atomically, so a
+failed or interrupted save leaves the previous file as it was.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import tempfile
+import zipfile
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from homecog.errors import QTableError
+from homecog.home.model import Home
+
+if TYPE_CHECKING:
+    from homecog.environment.core import Core
+
+FORMAT = 1
+
+
+@dataclass
+class QTable:
+    """Q values ``q[state, service]`` (float32), which pairs were tried, and the run's record.
+
+    ``tried[state, w]`` holds the tried marks of services ``32w .. 32w+31`` as bits.
+    """
+
+    home_name: str
+    home_hash: str
+    q: np.ndarray
+    tried: np.ndarray
+    episodes: int = 0
+    steps: int = 0
+    greedy_optimal_rate: float | None = None
+    config: dict[str, Any] = field(default_factory=dict)
+    rng: np.ndarray = field(default_factory=lambda: np.array([1], dtype=np.int64))
+
+    @classmethod
+    def empty(cls, core: Core, config: dict[str, Any] | None = None) -> QTable:
+        """An all-zero table for a home, nothing tried."""
+        shape = (core.n_states, core.n_services)
+        words = (core.n_services + 31) // 32
+        return cls(
+            home_name=core.home.name,
+            home_hash=core.home.content_hash,
+            q=np.zeros(shape, dtype=np.float32),
+            tried=np.zeros((core.n_states, words), dtype=np.int64),
+            config=dict(config or {}),
+        )
+
+    def check_home(self, home: Home, source: str = "the Q table") -> None:
+        """Raise :class:`QTableError` unless this table was made for ``home``."""
+        if self.home_hash != home.content_hash:
+            raise QTableError(
+                f"{source} was made for home '{self.home_name}' ({self.home_hash[:12]}), not for "
+                f"home '{home.name}' ({home.content_hash[:12]}); train again for this home"
+            )
+
+    def save(self, path: str | Path) -> Path:
+        """Write the table to ``path`` (.npz) atomically and return the path."""
+        path = Path(path)
+        meta = {
+            "format": FORMAT,
+            "home_name": self.home_name,
+            "home_hash": self.home_hash,
+            "episodes": self.episodes,
+            "steps": self.steps,
+            "greedy_optimal_rate": self.greedy_optimal_rate,
+            "config": self.config,
+            "rng": int(self.rng[0]),
+        }
+        try:
+            path.parent.mkdir(parents=True, exist_ok=True)
+            fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+        except OSError as e:
+            raise QTableError(f"{path}: cannot write: {e.strerror}") from None
+        try:
+            with os.fdopen(fd, "wb") as f:
+                np.savez_compressed(f, q=self.q, tried=self.tried, meta=np.array(json.dumps(meta)))
+            os.replace(tmp, path)
+        except OSError as e:
+            Path(tmp).unlink(missing_ok=True)
+            raise QTableError(f"{path}: cannot write: {e.strerror}") from None
+        except BaseException:
+            Path(tmp).unlink(missing_ok=True)
+            raise
+        return path
+
+    @classmethod
+    def load(cls, path: str | Path, home: Home | None = None) -> QTable:
+        """Read a table; with ``home``, refuse it unless it was made for that home."""
+        path = Path(path)
+        try:
+            with np.load(path, allow_pickle=False) as data:
+                meta = json.loads(str(data["meta"]))
+                q = data["q"]
+                tried = data["tried"]
+        except FileNotFoundError:
+            raise QTableError(f"{path}: no such file") from None
+        except IsADirectoryError:
+            raise QTableError(f"{path}: is a directory, not a Q table") from None
+        except PermissionError:
+            raise QTableError(f"{path}: cannot read: permission denied") from None
+        except (OSError, ValueError, KeyError, zipfile.BadZipFile, json.JSONDecodeError):
+            raise QTableError(f"{path}: not a homecog Q table") from None
+        if meta.get("format") != FORMAT or q.ndim != 2 or tried.shape[0] != q.shape[0]:
+            raise QTableError(f"{path}: not a homecog Q table (format {meta.get('format')!r})")
+        table = cls(
+            home_name=meta["home_name"],
+            home_hash=meta["home_hash"],
+            q=q,
+            tried=tried,
+            episodes=meta["episodes"],
+            steps=meta["steps"],
+            greedy_optimal_rate=meta["greedy_optimal_rate"],
+            config=meta["config"],
+            rng=np.array([meta["rng"]], dtype=np.int64),
+        )
+        if home is not None:
+            table.check_home(home, source=str(path))
+        return table
