@@ -17,7 +17,7 @@ benchmark and the equivalence test do that).
 >>> from homecog.home import load_home
 >>> core = Core(load_home("paper"))
 >>> core.n_contexts, core.n_devices, core.n_services, core.n_states
-(2592, 8, 20, 1300480)
+(2592, 8, 20, 1410048)
 """
 
 from __future__ import annotations
