@@ -91,7 +91,7 @@ def home_show(home: HomeOption = "paper", json: JsonOption = False) -> None:
 
     t = Table(title="Context features (code / normalized, as Table 1)", title_justify="left")
     for col in ("feature", "kind", "values"):
-        t.add_column(col)
+        t.add_column(col, no_wrap=col in ("feature", "device", "service"), overflow="fold")
     from homecog.home.encoding import coded
 
     for f in h.features:
@@ -105,7 +105,7 @@ def home_show(home: HomeOption = "paper", json: JsonOption = False) -> None:
 
     t = Table(title="Devices (hardware code order)", title_justify="left")
     for col in ("#", "device", "room", "switched", "comfort rules (first match wins)"):
-        t.add_column(col)
+        t.add_column(col, no_wrap=col in ("feature", "device", "service"), overflow="fold")
     for i, (d, rules) in enumerate(zip(h.devices, h.comfort, strict=True)):
         shown = "\n".join(f"{'on ' if r.want else 'off'} when {_when(h, r.when)}" for r in rules)
         t.add_row(str(i + 1), d.name, d.room or "", "IoT" if d.iot else "by hand", shown or "don't care")
@@ -113,7 +113,7 @@ def home_show(home: HomeOption = "paper", json: JsonOption = False) -> None:
 
     t = Table(title="Services", title_justify="left")
     for col in ("#", "service", "category", "effect", "needed when", "prohibited when"):
-        t.add_column(col)
+        t.add_column(col, no_wrap=col in ("feature", "device", "service"), overflow="fold")
     for i, (sv, needs, prohibited) in enumerate(zip(h.services, h.needs, h.prohibited, strict=True)):
         effect = ", ".join(f"{d}→{'on' if v else 'off'}" for d, v in sv.sets) or "interaction"
         t.add_row(
@@ -164,6 +164,9 @@ def _check_writable(path: Path) -> None:
     """Fail before the work, not after it, when ``path`` cannot be written."""
     if path.is_dir():
         raise UsageProblemError(f"--out {path}: is a directory")
+    blocker = next((p for p in path.parents if p.exists() and not p.is_dir()), None)
+    if blocker is not None:
+        raise UsageProblemError(f"--out {path}: cannot write there: {blocker} is not a directory")
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         with tempfile.NamedTemporaryFile(dir=path.parent, prefix=".homecog-check-"):
@@ -175,7 +178,7 @@ def _check_writable(path: Path) -> None:
 @app.command()
 def train(
     home: HomeOption = "paper",
-    episodes: Annotated[int | None, typer.Option(help="Episodes (default 4,000,000).")] = None,
+    episodes: Annotated[int | None, typer.Option(help="Episodes (default 3,000,000).")] = None,
     seed: Annotated[int, typer.Option(help="Seed; a run is reproducible from it.")] = 0,
     alpha: Annotated[float | None, typer.Option(help="Learning rate α (default 1.0).")] = None,
     gamma: Annotated[float | None, typer.Option(help="Discount γ (default 0.2).")] = None,

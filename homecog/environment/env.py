@@ -40,8 +40,9 @@ class SmartHomeEnv(gym.Env[np.ndarray, np.int64]):
     can ask for (1 = still pending).
 
     ## Starting State
-    A uniformly random context and device state with every need of the context pending;
-    ``reset(options={"context": codes, "devices": states})`` starts from a given one.
+    A uniformly random context and device state that is not the optimum already, with
+    every need of the context pending; ``reset(options={"context": codes, "devices":
+    states})`` starts from a given one (either may be given alone).
 
     ## Reward
     Eq. 1 of the paper with the home's weights: ``w_p·(+m if the distance fell else −m)
@@ -93,12 +94,17 @@ class SmartHomeEnv(gym.Env[np.ndarray, np.int64]):
         options = options or {}
         if "context" in options:
             self._c = context_index(self.home, options["context"])
-        else:
-            self._c = int(self.np_random.integers(self.core.n_contexts))
         if "devices" in options:
             self._h = self.core.bits(list(options["devices"]))
-        else:
-            self._h = int(self.np_random.integers(1 << self.core.n_devices))
+        # A random start is not the optimum already (such an episode has nothing to do),
+        # unless a thousand draws find none.
+        for _ in range(1000):
+            if "context" not in options:
+                self._c = int(self.np_random.integers(self.core.n_contexts))
+            if "devices" not in options:
+                self._h = int(self.np_random.integers(1 << self.core.n_devices))
+            if self.core.distance(self._c, self._h) > 0 or {"context", "devices"} <= options.keys():
+                break
         self._n = self.core.full_needs(self._c)
         return self._obs(), self._info()
 

@@ -74,8 +74,14 @@ class _Loader(yaml.SafeLoader):
         return super().construct_mapping(node, deep=deep)
 
 
+# YAML 1.2 has no base-60 numbers: keep an unquoted clock time (19:00) a string, not 1140.
+_NUMBER_TAGS = ("tag:yaml.org,2002:int", "tag:yaml.org,2002:float")
 _Loader.yaml_implicit_resolvers = {
-    first: [(tag, rx) for tag, rx in resolvers if tag != "tag:yaml.org,2002:bool"]
+    first: [
+        (tag, re.compile(r"(?!.*:)" + rx.pattern, rx.flags) if tag in _NUMBER_TAGS else rx)
+        for tag, rx in resolvers
+        if tag != "tag:yaml.org,2002:bool"
+    ]
     for first, resolvers in yaml.SafeLoader.yaml_implicit_resolvers.items()
 }
 _Loader.add_implicit_resolver(
@@ -316,7 +322,7 @@ class _Validator:
                 raise self.fail(bpath, f"expected [low, high], got {bounds!r}")
             if kind == "clock":
                 low, high = (self.hours(b, f"{bpath}[{i}]") for i, b in enumerate(bounds))
-                if low % 24 == high % 24:
+                if low == high:  # [0, 24] and [24, 0] are the whole day, not empty
                     raise self.fail(bpath, f"empty bin [{format_number(low)}, {format_number(high)}]")
             else:
                 low, high = (self.number(b, f"{bpath}[{i}]") for i, b in enumerate(bounds))
@@ -386,9 +392,9 @@ class _Validator:
             self.name(name, path, "device")
             spec = self.mapping(spec, path, allow_empty=True)
             self.keys(spec, path, ("room", "iot", "place", "description"))
-            iot = spec.get("iot", True)
-            if not isinstance(iot, bool):
-                raise self.fail(f"{path}.iot", f"expected true or false, got {iot!r}")
+            iot = parse_device_state(spec.get("iot", True))
+            if iot is None:
+                raise self.fail(f"{path}.iot", f"expected true or false, got {spec['iot']!r}")
             room = spec.get("room")
             out.append(Device(name=name, room=None if room is None else str(room), iot=iot))
         return tuple(out)

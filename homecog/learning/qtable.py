@@ -85,6 +85,9 @@ class QTable:
         try:
             with os.fdopen(fd, "wb") as f:
                 np.savez_compressed(f, q=self.q, tried=self.tried, meta=np.array(json.dumps(meta)))
+            umask = os.umask(0)
+            os.umask(umask)
+            os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes it private; a Q table is not secret
             os.replace(tmp, path)
         except OSError as e:
             Path(tmp).unlink(missing_ok=True)
@@ -109,7 +112,7 @@ class QTable:
             raise QTableError(f"{path}: is a directory, not a Q table") from None
         except PermissionError:
             raise QTableError(f"{path}: cannot read: permission denied") from None
-        except (OSError, ValueError, KeyError, zipfile.BadZipFile, json.JSONDecodeError):
+        except (OSError, EOFError, ValueError, KeyError, zipfile.BadZipFile, json.JSONDecodeError):
             raise QTableError(f"{path}: not a homecog Q table") from None
         if meta.get("format") != FORMAT or q.ndim != 2 or tried.shape[0] != q.shape[0]:
             raise QTableError(f"{path}: not a homecog Q table (format {meta.get('format')!r})")

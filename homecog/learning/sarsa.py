@@ -137,6 +137,12 @@ def word_mask(n_services: int, w: int) -> int:
 
 
 @_inline
+def epsilon(t: int, eps_c: float, eps_min: float) -> float:
+    """ε of episode t (1-based): min(1, max(ε_min, √(c/t))); the paper's c = 2."""
+    return min(1.0, max(eps_min, math.sqrt(eps_c / t)))
+
+
+@_inline
 def sarsa_update(q: np.ndarray, s: int, a: int, r: float, target: float, alpha: float) -> None:
     """Q(s,a) ← Q(s,a) + α[r + target − Q(s,a)], target = γQ(s',a') (0 at the end)."""
     q[s, a] += alpha * (r + target - q[s, a])
@@ -178,7 +184,7 @@ def run_episodes(
     n_h = 1 << n_devices
     steps = 0
     for e in range(episodes):
-        eps = min(1.0, max(eps_min, math.sqrt(eps_c / (t0 + e + 1))))
+        eps = epsilon(t0 + e + 1, eps_c, eps_min)
         c = _next(rng) % n_contexts
         h = _next(rng) % n_h
         k = need_count[c]

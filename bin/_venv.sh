@@ -1,0 +1,32 @@
+# Sourced by bin/homecog, bin/test and bin/bench: make .venv and install homecog into it
+# when it is missing or pyproject.toml changed since the last install.
+set -euo pipefail
+root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+venv="$root/.venv"
+
+ensure_venv() {
+    local extras="$1" python stamp want
+    python=""
+    for candidate in ${PYTHON:-} python3 python3.13 python3.12 python3.11; do
+        if "$candidate" -c 'import sys; sys.exit(sys.version_info < (3, 11))' >/dev/null 2>&1; then
+            python="$candidate"
+            break
+        fi
+    done
+    if [ -z "$python" ]; then
+        echo "homecog needs Python 3.11 or newer (set PYTHON to its path)" >&2
+        exit 1
+    fi
+    if [ ! -x "$venv/bin/python" ]; then
+        echo "setting up $venv ..." >&2
+        "$python" -m venv "$venv"
+    fi
+    stamp="$venv/.homecog-installed"
+    want="$(cat "$root/pyproject.toml" | sha256sum | cut -d' ' -f1) [$extras]"
+    if [ ! -f "$stamp" ] || ! grep -qxF "$want" "$stamp"; then
+        echo "installing homecog${extras:+ with [$extras]} into $venv ..." >&2
+        "$venv/bin/python" -m pip install --quiet --disable-pip-version-check --upgrade pip >&2
+        "$venv/bin/python" -m pip install --quiet --disable-pip-version-check -e "$root${extras:+[$extras]}" >&2
+        echo "$want" > "$stamp"
+    fi
+}

@@ -1,0 +1,39 @@
+"""A plain reference of the environment, written from the Home model's rule methods only.
+
+The vectorized core is checked against it: they share no code but the Home.
+"""
+
+from __future__ import annotations
+
+from homecog.home import Home
+
+
+def reference_step(
+    home: Home, codes: tuple[int, ...], states: tuple[bool, ...], pending: frozenset[str], service: str
+) -> tuple[tuple[bool, ...], frozenset[str], float, bool]:
+    """(states', pending', reward, terminated) by SPEC §3, Eq. 1."""
+    wanted = home.wanted(codes)
+
+    def dist(st: tuple[bool, ...], pend: frozenset[str]) -> int:
+        return sum(1 for s, w in zip(st, wanted, strict=True) if w is not None and s != w) + len(pend)
+
+    svc = home.services[home.service_index(service)]
+    new_states = list(states)
+    for device, value in svc.sets:
+        new_states[home.device_index(device)] = value
+    new_pending = pending - {service}
+    before, after = dist(states, pending), dist(tuple(new_states), new_pending)
+    r = home.rewards
+    reward = r.progress * (r.magnitude if after < before else -r.magnitude)
+    if after == 0:
+        reward += r.terminal * r.magnitude
+    if home.is_prohibited(home.service_index(service), codes, states):
+        reward -= r.prohibited * r.magnitude
+    return tuple(new_states), new_pending, reward, after == 0
+
+
+def reference_distance(
+    home: Home, codes: tuple[int, ...], states: tuple[bool, ...], pending: frozenset[str]
+) -> int:
+    wanted = home.wanted(codes)
+    return sum(1 for s, w in zip(states, wanted, strict=True) if w is not None and s != w) + len(pending)
