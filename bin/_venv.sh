@@ -21,12 +21,16 @@ ensure_venv() {
         echo "setting up $venv ..." >&2
         "$python" -m venv "$venv"
     fi
+    # The stamp has a line "<hash of pyproject.toml> [extras]" per install; the plain install
+    # is satisfied by any line of the current hash.
     stamp="$venv/.homecog-installed"
-    want="$(cat "$root/pyproject.toml" | sha256sum | cut -d' ' -f1) [$extras]"
-    if [ ! -f "$stamp" ] || ! grep -qxF "$want" "$stamp"; then
-        echo "installing homecog${extras:+ with [$extras]} into $venv ..." >&2
-        "$venv/bin/python" -m pip install --quiet --disable-pip-version-check --upgrade pip >&2
-        "$venv/bin/python" -m pip install --quiet --disable-pip-version-check -e "$root${extras:+[$extras]}" >&2
-        echo "$want" > "$stamp"
+    hash="$(sha256sum "$root/pyproject.toml" | cut -d' ' -f1)"
+    if [ -f "$stamp" ] && { grep -qxF "$hash [$extras]" "$stamp" || { [ -z "$extras" ] && grep -q "^$hash " "$stamp"; }; }; then
+        return 0
     fi
+    [ -f "$stamp" ] && grep -q "^$hash " "$stamp" || : > "$stamp"
+    echo "installing homecog${extras:+ with [$extras]} into $venv ..." >&2
+    "$venv/bin/python" -m pip install --quiet --disable-pip-version-check --upgrade pip >&2
+    "$venv/bin/python" -m pip install --quiet --disable-pip-version-check -e "$root${extras:+[$extras]}" >&2
+    echo "$hash [$extras]" >> "$stamp"
 }
