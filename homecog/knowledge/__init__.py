@@ -1,0 +1,1 @@
+"""The knowledge stage: samples, the IHDR tree, its store, cognition and corrections."""

@@ -1,0 +1,232 @@
+"""Samples from the Q table (SPEC §5; the paper's §3.1, §4.2, Tables 5, 7, 8).
+
+From every start state, the greedy roll-out of the learned policy gives an ordered
+service sequence; numeric features get a random reading inside their bin (Table 7).
+For each service of a sequence, the sample marks which dimensions (context features and
+device states) matter to it — Table 5's zeros are the ones that do not.
+
+*Which* dimensions matter is learned from the policy, never written per service: a
+dimension matters to a service at a start state when changing it alone changes whether
+the policy performs the service there. Where the decision is over-determined (the light
+is wanted on because it is evening *and* because it is dark) no single change flips it and
+that test alone would call both irrelevant; so the set is then grown, dimension by
+dimension, until the sample's conditions are sufficient: every start state that meets
+them has the policy perform the service. Conditions of a sample are therefore never
+wrong on the training space, which is what lets the ``multi`` tree reach its precision.
+
+>>> from homecog.home import load_home
+>>> from homecog.environment.core import Core
+>>> from homecog.learning.sarsa import SarsaConfig, train
+>>> home = load_home("paper")
+>>> q = train(home, SarsaConfig(episodes=2_000_000, seed=0)).q_table.q
+>>> samples = make_samples(Core(home), q, seed=0)
+>>> len(samples)
+663552
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numba
+import numpy as np
+
+from homecog.environment.core import Core, Tables, apply, argmax_row, distance
+from homecog.knowledge.space import Point, Space, finite_span
+
+_jit = numba.njit(cache=True, nogil=True)
+
+
+@dataclass(frozen=True)
+class Sample:
+    """One start state: its context, the ordered services, and per service what matters.
+
+    ``relevant[i]`` is a bit mask over the space's dimensions for ``services[i]``.
+    """
+
+    point: Point
+    services: tuple[int, ...]
+    relevant: tuple[int, ...]
+
+
+@dataclass
+class SampleSet:
+    """All samples of a home as arrays, one row per start state.
+
+    ``codes[i]`` are the point's codes, ``readings[i, j]`` the raw reading of numeric
+    dimension ``j`` (NaN for discrete ones), ``positions[i, a]`` the step at which the policy
+    performs service ``a`` (−1: not performed) and ``masks[i, a]`` what matters to it.
+    """
+
+    space: Space
+    codes: np.ndarray
+    readings: np.ndarray
+    positions: np.ndarray
+    masks: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.codes)
+
+    def __getitem__(self, i: int) -> Sample:
+        row = self.positions[i]
+        done = np.flatnonzero(row >= 0)
+        order = tuple(int(a) for a in done[np.argsort(row[done], kind="stable")])
+        point = Point(
+            codes=tuple(int(x) for x in self.codes[i]),
+            readings=tuple(None if np.isnan(r) else float(r) for r in self.readings[i]),
+        )
+        return Sample(point=point, services=order, relevant=tuple(int(self.masks[i, a]) for a in order))
+
+    def table5(self, rows: int = 5, seed: int = 0) -> list[dict[str, str]]:
+        """A few sample rows in the layout of the paper's Table 5 (one row per service)."""
+        rng = np.random.default_rng(seed)
+        out = []
+        home = self.space.home
+        for i in rng.permutation(len(self)):
+            s = self[int(i)]
+            described = self.space.describe(s.point)
+            for a, mask in zip(s.services, s.relevant, strict=True):
+                row = {
+                    dim.name: (described[dim.name] if mask >> j & 1 else "0")
+                    for j, dim in enumerate(self.space.dims)
+                }
+                row["service"] = home.services[a].name
+                out.append(row)
+                if len(out) == rows:
+                    return out
+        return out
+
+
+@_jit
+def greedy_positions(t: Tables, q: np.ndarray, limit: int) -> np.ndarray:
+    """For every start state, the step at which the greedy roll-out performs each service."""
+    (n_devices, need_count, offsets, care, want, need_pos, set_mask, set_val, _, _, _, _, _, _) = t
+    n_contexts = len(need_count)
+    n_h = 1 << n_devices
+    out = np.full((n_contexts, n_h, q.shape[1]), -1, dtype=np.int8)
+    for c in range(n_contexts):
+        k = need_count[c]
+        for h0 in range(n_h):
+            h, n = h0, (1 << k) - 1
+            step = 0
+            while distance(care[c], want[c], h, n) > 0 and step < limit:
+                a = argmax_row(q, offsets[c] + (h << k) + n)
+                if out[c, h0, a] < 0:
+                    out[c, h0, a] = step
+                h, n = apply(set_mask, set_val, need_pos, c, h, n, a)
+                step += 1
+    return out
+
+
+def _axes(space: Space) -> list[int]:
+    """Axis of each dimension in the performed table reshaped to one axis per dimension."""
+    n_f, n_d = space.n_features, len(space.dims) - space.n_features
+    # contexts are mixed-radix with the first feature most significant; device d is bit d of h,
+    # so in C order the last device comes first among the device axes.
+    return list(range(n_f)) + [n_f + (n_d - 1 - d) for d in range(n_d)]
+
+
+def relevance(space: Space, performed: np.ndarray) -> np.ndarray:
+    """Per (c, h, a), the bit mask of dimensions whose change alone flips ``performed``."""
+    n_c, n_h, n_a = performed.shape
+    shape = [dim_size(d) for d in space.dims[: space.n_features]]
+    shape += [2] * (len(space.dims) - space.n_features) + [n_a]
+    table = performed.reshape(shape)
+    mask = np.zeros(table.shape, dtype=np.int64)
+    for bit, axis in enumerate(_axes(space)):
+        varies = table.any(axis=axis, keepdims=True) & ~table.all(axis=axis, keepdims=True)
+        mask |= np.where(varies, np.int64(1) << bit, 0)
+    return mask.reshape(n_c, n_h, n_a)
+
+
+def dim_size(dim: object) -> int:
+    return len(dim.values)  # type: ignore[attr-defined]
+
+
+def point_codes(core: Core) -> np.ndarray:
+    """Codes of every start state's point, shape (C·H, dims), in (c, h) order."""
+    home = core.home
+    radix = [f.radix for f in home.features]
+    ctx = np.stack(np.unravel_index(np.arange(core.n_contexts), radix), axis=1)
+    n_h = 1 << core.n_devices
+    dev = (np.arange(n_h)[:, None] >> np.arange(core.n_devices)[None, :]) & 1
+    return np.concatenate([np.repeat(ctx, n_h, axis=0), np.tile(dev, (core.n_contexts, 1))], axis=1)
+
+
+def sufficient_masks(
+    space: Space, performed: np.ndarray, sensitive: np.ndarray, codes: np.ndarray
+) -> np.ndarray:
+    """Grow each positive's sensitive set until its box holds only positives (see module doc)."""
+    n_c, n_h, n_a = performed.shape
+    n_dims = len(space.dims)
+    axes = _axes(space)
+    shape = [dim_size(d) for d in space.dims[: space.n_features]] + [2] * (n_dims - space.n_features)
+    out = np.zeros((n_c * n_h, n_a), dtype=np.int64)
+    for a in range(n_a):
+        table = performed[:, :, a].reshape(shape)
+        pos = np.flatnonzero(performed[:, :, a].reshape(-1))
+        if pos.size == 0:
+            continue
+        masks = sensitive[:, :, a].reshape(-1)[pos]
+        # dimensions most often sensitive for this service are added first
+        freq = [int(((masks >> j) & 1).sum()) for j in range(n_dims)]
+        order = sorted(range(n_dims), key=lambda j: -freq[j])
+        stack = [(pos, masks)]
+        while stack:
+            members, member_masks = stack.pop()
+            for mask in np.unique(member_masks):
+                group = members[member_masks == mask]
+                bits = [j for j in range(n_dims) if mask >> j & 1]
+                keys = codes[group][:, bits] if bits else np.zeros((len(group), 0), dtype=codes.dtype)
+                uniq, inverse = np.unique(keys, axis=0, return_inverse=True)
+                inverse = inverse.reshape(-1)
+                for g, key in enumerate(uniq):
+                    idx = [slice(None)] * n_dims
+                    for j, v in zip(bits, key, strict=True):
+                        idx[axes[j]] = int(v)
+                    sub = group[inverse == g]
+                    if table[tuple(idx)].all():
+                        out[sub, a] = mask
+                        continue
+                    extra = next(j for j in order if not mask >> j & 1)
+                    stack.append((sub, np.full(len(sub), mask | (1 << extra), dtype=np.int64)))
+    return out
+
+
+def make_samples(core: Core, q: np.ndarray, *, seed: int = 0, limit: int | None = None) -> SampleSet:
+    """Samples of every start state of a home from a Q table (deterministic given ``seed``)."""
+    space = Space(core.home)
+    limit = limit or 2 * (core.n_devices + int(core.tables.need_count.max())) + 2
+    positions = greedy_positions(core.tables, q, limit)
+    performed = positions >= 0
+    sensitive = relevance(space, performed)
+    codes = point_codes(core)
+    masks = sufficient_masks(space, performed, sensitive, codes)
+
+    rng = np.random.default_rng(seed)
+    n_points = codes.shape[0]
+    readings: list[np.ndarray | None] = []
+    for j, dim in enumerate(space.dims):
+        if not dim.numeric:
+            readings.append(None)
+            continue
+        feature = core.home.features[j]
+        bounds = np.array(finite_span(feature.bins)).reshape(-1, 2)  # type: ignore[arg-type]
+        low, high = bounds[codes[:, j], 0], bounds[codes[:, j], 1]
+        if dim.kind == "clock":  # a bin wrapping midnight: draw on the unwrapped span
+            high = np.where(high <= low, high + 24, high)
+        values = low + (high - low) * rng.random(n_points)
+        readings.append(np.round(values % 24 if dim.kind == "clock" else values, 2))
+
+    numeric = np.full((n_points, len(space.dims)), np.nan)
+    for j, r in enumerate(readings):
+        if r is not None:
+            numeric[:, j] = r
+    small = np.int8 if max(len(d.values) for d in space.dims) < 128 else np.int16
+    return SampleSet(
+        space=space,
+        codes=codes.astype(small),
+        readings=numeric,
+        positions=positions.reshape(n_points, -1),
+        masks=masks,
+    )

@@ -1,0 +1,244 @@
+"""The input space of the knowledge tree: the context features followed by the devices.
+
+A context as people write it (``{"time": "7:00", "temperature": 25, ..., "window": "off"}``)
+becomes a :class:`Point`: one discrete code per dimension (a feature's bin or value, a
+device's 0/1) and the raw numeric readings, which the paper's clusters keep as mean ±
+range (Table 6).
+
+>>> from homecog.home import load_home
+>>> space = Space(load_home("paper"))
+>>> p = space.point({"time": "22:00", "temperature": 19, "illumination": 200,
+...     "location": "table", "posture": "sit", "behavior": "read", "window": "on",
+...     "curtain": "on", "tv_living": "off", "tv_bedroom": "off", "ac_living": "off",
+...     "ac_bedroom": "off", "lamp": "on", "ceiling_light": "on"})
+>>> p.codes
+(5, 0, 1, 0, 0, 0, 1, 1, 0, 0, 0, 0, 1, 1)
+>>> space.describe(p)["time"]
+'22:00 (night)'
+"""
+
+from __future__ import annotations
+
+import bisect
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+from homecog.errors import ContextError
+from homecog.home.model import Feature, Home, format_clock, format_number, parse_state
+
+
+@dataclass(frozen=True)
+class Dimension:
+    """One input dimension: a context feature or a device."""
+
+    name: str
+    kind: str  # clock, numeric, categorical or device
+    values: tuple[str, ...]  # bin names, categories, or ("off", "on")
+
+    @property
+    def numeric(self) -> bool:
+        return self.kind in ("clock", "numeric")
+
+
+@dataclass(frozen=True)
+class Point:
+    """A context in the input space: codes per dimension, raw readings of numeric ones."""
+
+    codes: tuple[int, ...]
+    readings: tuple[float | None, ...]
+
+
+class Space:
+    """The dimensions of a home's knowledge: its features, then its devices."""
+
+    def __init__(self, home: Home) -> None:
+        self.home = home
+        dims = [Dimension(f.name, f.kind, f.values) for f in home.features]
+        dims += [Dimension(d.name, "device", ("off", "on")) for d in home.devices]
+        self.dims = tuple(dims)
+        self.names = tuple(d.name for d in dims)
+        self.index = {name: i for i, name in enumerate(self.names)}
+        self.n_features = len(home.features)
+        self._parsers = [self._parser(f) for f in home.features]
+        states = {
+            "on": 1,
+            "off": 0,
+            "true": 1,
+            "false": 0,
+            "yes": 1,
+            "no": 0,
+            "1": 1,
+            "0": 0,
+            True: 1,
+            False: 0,
+            "open": 1,
+            "closed": 0,
+        }
+        self._parsers += [(d.name, "device", states) for d in home.devices]
+
+    @staticmethod
+    def _parser(f: Feature) -> tuple[str, str, Any]:
+        if f.kind == "categorical":
+            return f.name, "categorical", {v: k for k, v in enumerate(f.values)}
+        # sorted cut points; a reading maps to the bin that starts at the last cut below it
+        cuts: list[tuple[float, int]] = []
+        for k, (low, high) in enumerate(f.bins or ()):
+            cuts.append((low, k))
+            if low > high:  # a clock bin wrapping midnight also starts at 00:00
+                cuts.append((0.0, k))
+            cuts.append((high, -1))
+        cuts.sort(key=lambda c: (c[0], c[1] < 0))
+        edges, order = [], []
+        for x, k in cuts:  # at a shared bound the starting bin wins over the ending one
+            if edges and edges[-1] == x:
+                if k >= 0:
+                    order[-1] = k
+                continue
+            edges.append(x)
+            order.append(k)
+        return f.name, f.kind, (edges, order)
+
+    def __len__(self) -> int:
+        return len(self.dims)
+
+    def point(self, context: Mapping[str, object]) -> Point:
+        """A full context (every feature and device, as in a scenario file) as a point."""
+        if len(context) == len(self.names):
+            try:
+                return self._fast_point(context)
+            except (KeyError, ValueError, TypeError, IndexError):
+                pass  # the validating path below names what is wrong
+        codes, states = self.home.discretize(context)
+        readings: list[float | None] = []
+        for f in self.home.features:
+            readings.append(None if f.is_discrete else float(f.parse(context[f.name])))  # type: ignore[arg-type]
+        readings += [None] * len(states)
+        return Point(codes=codes + tuple(int(s) for s in states), readings=tuple(readings))
+
+    def _fast_point(self, context: Mapping[str, object]) -> Point:
+        """The common case, well-formed input, without the validation of Home.discretize."""
+        codes = []
+        readings: list[float | None] = []
+        for name, kind, lookup in self._parsers:
+            value = context[name]
+            if kind == "categorical":
+                codes.append(lookup[value])
+                readings.append(None)
+            elif kind == "device":
+                codes.append(lookup[value if isinstance(value, bool) else str(value).lower()])
+                readings.append(None)
+            else:
+                if kind == "clock" and isinstance(value, str):
+                    h, _, m = value.partition(":")
+                    x = int(h) + (int(m) / 60 if m else 0.0) if m else float(h)
+                    if not (0 <= x <= 24 and (not m or int(m) < 60)):
+                        raise ValueError(value)
+                    x %= 24
+                else:
+                    x = float(value)  # type: ignore[arg-type]
+                    if isinstance(value, bool) or x != x or (kind == "clock" and not 0 <= x <= 24):
+                        raise ValueError(value)
+                    x = x % 24 if kind == "clock" else x
+                edges, order = lookup
+                k = order[bisect.bisect_right(edges, x) - 1]
+                if k < 0:
+                    raise ValueError(value)
+                codes.append(k)
+                readings.append(x)
+        return Point(codes=tuple(codes), readings=tuple(readings))
+
+    def from_codes(self, codes: tuple[int, ...], readings: tuple[float | None, ...] | None = None) -> Point:
+        """A point from codes (readings default to None)."""
+        if len(codes) != len(self.dims):
+            raise ContextError(f"expected {len(self.dims)} codes, got {len(codes)}")
+        return Point(codes=tuple(int(c) for c in codes), readings=readings or (None,) * len(codes))
+
+    def describe(self, p: Point) -> dict[str, str]:
+        """A point as readable values: ``{"time": "22:00 (night)", "window": "on", ...}``."""
+        out = {}
+        for dim, code, reading in zip(self.dims, p.codes, p.readings, strict=True):
+            value = dim.values[code]
+            if reading is None:
+                out[dim.name] = value
+            elif dim.kind == "clock":
+                out[dim.name] = f"{format_clock(reading)} ({value})"
+            else:
+                out[dim.name] = f"{format_number(round(reading, 2))} ({value})"
+        return out
+
+    def context(self, p: Point) -> dict[str, str]:
+        """A point as a context mapping (readings as text, devices on/off), as a scenario row."""
+        out = {}
+        for dim, code, reading in zip(self.dims, p.codes, p.readings, strict=True):
+            if reading is None:
+                out[dim.name] = dim.values[code]
+            elif dim.kind == "clock":
+                out[dim.name] = format_clock(reading)
+            else:
+                out[dim.name] = format_number(round(reading, 4))
+        return out
+
+
+def parse_context(text: str, space: Space) -> Point:
+    """A ``--context`` string: comma-separated ``name=value`` for every feature and device.
+
+    >>> from homecog.home import load_home
+    >>> space = Space(load_home("paper"))
+    >>> text = ("time=7:00,temperature=25,illumination=100,location=bed,posture=lie,"
+    ...         "behavior=sleep,window=off,curtain=off,tv_living=off,tv_bedroom=off,"
+    ...         "ac_living=off,ac_bedroom=off,lamp=off,ceiling_light=off")
+    >>> parse_context(text, space).codes[:6]
+    (0, 1, 1, 2, 1, 2)
+    """
+    pairs: dict[str, str] = {}
+    for part in text.split(","):
+        part = part.strip()
+        if not part:
+            continue
+        if "=" not in part:
+            raise ContextError(f"--context: {part!r} is not name=value")
+        name, value = (s.strip() for s in part.split("=", 1))
+        if name in pairs:
+            raise ContextError(f"--context: {name} given twice")
+        pairs[name] = value
+    return space.point(pairs)
+
+
+def parse_services(text: str | list[str], home: Home) -> list[str]:
+    """A ``--want`` list (comma-separated service names), validated; an empty string is none."""
+    names = [s.strip() for s in text.split(",")] if isinstance(text, str) else [s.strip() for s in text]
+    names = [n for n in names if n]
+    known = set(home.service_names)
+    for n in names:
+        if n not in known:
+            raise ContextError(f"unknown service {n!r}; expected some of {', '.join(home.service_names)}")
+    seen: list[str] = []
+    for n in names:
+        if n not in seen:
+            seen.append(n)
+    return seen
+
+
+def state_word(value: object) -> str:
+    """on/off of a device state given in any accepted form."""
+    return "on" if parse_state(value) else "off"
+
+
+def finite_span(bins: tuple[tuple[float, float], ...]) -> tuple[float, ...]:
+    """Bounds to draw random readings from for each bin (infinite ends made finite).
+
+    An open end reaches three times the widest finite bin beyond the outermost finite bound,
+    e.g. temperature ``cold: [-inf, 25)`` with a 5-degree ``suitable`` bin draws from [10, 25).
+    """
+    finite = [b for b in bins if not (math.isinf(b[0]) or math.isinf(b[1]))]
+    width = max((b[1] - b[0] for b in finite), default=1.0) * 3 or 1.0
+    out = []
+    for low, high in bins:
+        if math.isinf(low):
+            low = high - width
+        if math.isinf(high):
+            high = low + width
+        out.extend([low, high])
+    return tuple(out)

@@ -1,0 +1,623 @@
+"""The knowledge store: the IHDR tree and the experience log in a SQL database (SPEC §6).
+
+SQLAlchemy 2 over SQLite (the default: a file under the user's data directory),
+MariaDB/MySQL (PyMySQL) or PostgreSQL (psycopg 3). Nodes are rows with a parent; clusters
+are rows of a node; every sample and correction is appended to ``experiences`` in the same
+transaction as the tree update, and the tree rebuilt from that log answers identically.
+The schema is created and changed by Alembic migrations (``homecog/knowledge/migrations``).
+
+A correction locks its user's row (``SELECT … FOR UPDATE``; SQLite takes the database's
+write lock), reloads that user's layer if another process changed it, applies the
+correction and writes it back, so concurrent corrections lose nothing.
+
+The learner never touches SQL: this module maps the tree to rows and back.
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import os
+import zlib
+from collections.abc import Iterator
+from contextlib import contextmanager
+from datetime import UTC, datetime
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from sqlalchemy import (
+    BigInteger,
+    DateTime,
+    Double,
+    ForeignKey,
+    Integer,
+    LargeBinary,
+    String,
+    Text,
+    create_engine,
+    delete,
+    event,
+    func,
+    insert,
+    select,
+    text,
+    update,
+)
+from sqlalchemy.dialects import mysql
+from sqlalchemy.engine import Connection, Engine
+from sqlalchemy.exc import ArgumentError, DBAPIError, NoSuchModuleError, OperationalError, SQLAlchemyError
+from sqlalchemy.orm import DeclarativeBase, Mapped, mapped_column
+
+from homecog.errors import HomecogError
+from homecog.home.model import Home
+from homecog.knowledge.ihdr import Cluster, IHDRTree, Numeric
+from homecog.knowledge.samples import SampleSet
+from homecog.knowledge.space import Point
+from homecog.paths import data_dir
+
+SCHEMA_VERSION = "0001"
+_LongBlob = LargeBinary().with_variant(mysql.LONGBLOB(), "mysql", "mariadb")
+_LongText = Text().with_variant(mysql.LONGTEXT(), "mysql", "mariadb")
+SAMPLES_PER_ROW = 32768
+
+
+class StoreError(HomecogError):
+    """A database that cannot be reached, or that holds knowledge of another home."""
+
+
+class Base(DeclarativeBase):
+    pass
+
+
+class HomeRow(Base):
+    """The home this database is made for (one per database)."""
+
+    __tablename__ = "homes"
+    id: Mapped[int] = mapped_column(Integer, primary_key=True)
+    name: Mapped[str] = mapped_column(String(200))
+    content_hash: Mapped[str] = mapped_column(String(64))
+    mode: Mapped[str] = mapped_column(String(16))
+    built_at: Mapped[datetime | None] = mapped_column(DateTime, nullable=True)
+    state: Mapped[str | None] = mapped_column(_LongText, nullable=True)  # JSON: precedence, counters
+
+
+class NodeRow(Base):
+    """A node of the tree: root, category or service, with its parent."""
+
+    __tablename__ = "nodes"
+    id: Mapped[int] = mapped_column(Integer, primary_key=True, autoincrement=False)
+    parent_id: Mapped[int | None] = mapped_column(ForeignKey("nodes.id"), nullable=True)
+    name: Mapped[str] = mapped_column(String(200))
+    kind: Mapped[str] = mapped_column(String(16))
+    service: Mapped[int] = mapped_column(Integer)
+    count: Mapped[int] = mapped_column(BigInteger)
+    position_sum: Mapped[float] = mapped_column(Double)
+
+
+class ClusterRow(Base):
+    """A cluster of a node; ``user`` is NULL for the shared tree, else the user's layer."""
+
+    __tablename__ = "clusters"
+    id: Mapped[int] = mapped_column(Integer, primary_key=True)
+    node_id: Mapped[int] = mapped_column(ForeignKey("nodes.id"), index=True)
+    user: Mapped[str | None] = mapped_column(String(200), nullable=True, index=True)
+    tree_id: Mapped[int] = mapped_column(BigInteger)
+    polarity: Mapped[int] = mapped_column(Integer)
+    conditions: Mapped[str] = mapped_column(_LongText)
+    count: Mapped[int] = mapped_column(BigInteger)
+    position_sum: Mapped[float] = mapped_column(Double)
+    seq: Mapped[int] = mapped_column(BigInteger)
+    seed: Mapped[str | None] = mapped_column(Text, nullable=True)
+
+
+class UserRow(Base):
+    """A household member: the lock their corrections take, and a version for caches."""
+
+    __tablename__ = "users"
+    name: Mapped[str] = mapped_column(String(200), primary_key=True)
+    version: Mapped[int] = mapped_column(BigInteger, default=0)
+    corrections: Mapped[int] = mapped_column(BigInteger, default=0)
+
+
+class ExperienceRow(Base):
+    """The append-only experience log: sample batches, single samples and corrections."""
+
+    __tablename__ = "experiences"
+    id: Mapped[int] = mapped_column(Integer, primary_key=True, autoincrement=True)
+    kind: Mapped[str] = mapped_column(String(16))
+    user: Mapped[str | None] = mapped_column(String(200), nullable=True)
+    created_at: Mapped[datetime] = mapped_column(DateTime)
+    payload: Mapped[str | None] = mapped_column(_LongText, nullable=True)
+    data: Mapped[bytes | None] = mapped_column(_LongBlob, nullable=True)
+
+
+# -- urls and engines ---------------------------------------------------------------------------
+def default_url(home: Home) -> str:
+    """``$HOMECOG_DB`` or a SQLite file under the data directory, one per home."""
+    env = os.environ.get("HOMECOG_DB")
+    if env:
+        return env
+    path = data_dir() / "knowledge" / f"{home.name}-{home.content_hash[:16]}.sqlite"
+    return f"sqlite:///{path}"
+
+
+def redact(url: str) -> str:
+    """A URL without its password, for messages."""
+    from sqlalchemy.engine import make_url
+
+    try:
+        return make_url(url).render_as_string(hide_password=True)
+    except ArgumentError:
+        return url
+
+
+def make_engine(url: str) -> Engine:
+    """An engine for a URL; SQLite gets WAL, a busy timeout and immediate write transactions."""
+    try:
+        if url.startswith("sqlite"):
+            path = url.split("///", 1)[1] if "///" in url else ""
+            if path and path != ":memory:":
+                Path(path).parent.mkdir(parents=True, exist_ok=True)
+            engine = create_engine(url, connect_args={"timeout": 60})
+
+            @event.listens_for(engine, "connect")
+            def _connect(dbapi_connection: Any, _: Any) -> None:
+                dbapi_connection.isolation_level = None  # we issue BEGIN ourselves
+                cursor = dbapi_connection.cursor()
+                cursor.execute("PRAGMA journal_mode=WAL")
+                cursor.execute("PRAGMA foreign_keys=ON")
+                cursor.close()
+
+            @event.listens_for(engine, "begin")
+            def _begin(conn: Connection) -> None:
+                conn.exec_driver_sql("BEGIN IMMEDIATE")
+
+            return engine
+        return create_engine(url, pool_pre_ping=True)
+    except (ArgumentError, NoSuchModuleError, ValueError) as e:
+        raise StoreError(f"--db {redact(url)}: not a database URL ({e})") from None
+    except ImportError as e:
+        raise StoreError(f"--db {redact(url)}: driver missing ({e.name}); install it with pip") from None
+    except OSError as e:
+        raise StoreError(f"--db {redact(url)}: {e.strerror}") from None
+
+
+def _db_message(url: str, e: BaseException) -> str:
+    orig = getattr(e, "orig", None) or e
+    text_ = str(orig).strip().splitlines()[0] if str(orig).strip() else type(orig).__name__
+    return f"--db {redact(url)}: cannot use the database: {text_}"
+
+
+# -- encoding the tree -------------------------------------------------------------------------
+def _encode_conditions(conditions: dict[int, Any]) -> str:
+    out = {}
+    for j, cond in sorted(conditions.items()):
+        if isinstance(cond, Numeric):
+            out[str(j)] = {"n": cond.count, "sum": cond.total, "low": cond.low, "high": cond.high}
+        else:
+            out[str(j)] = sorted(cond)
+    return json.dumps(out, separators=(",", ":"))
+
+
+def _decode_conditions(text_: str) -> dict[int, Any]:
+    out: dict[int, Any] = {}
+    for j, cond in json.loads(text_).items():
+        if isinstance(cond, dict):
+            out[int(j)] = Numeric(count=cond["n"], total=cond["sum"], low=cond["low"], high=cond["high"])
+        else:
+            out[int(j)] = frozenset(cond)
+    return out
+
+
+def _pack(arrays: dict[str, np.ndarray]) -> bytes:
+    buf = io.BytesIO()
+    np.savez(buf, **arrays)
+    return zlib.compress(buf.getvalue(), 6)
+
+
+def _unpack(data: bytes) -> dict[str, np.ndarray]:
+    with np.load(io.BytesIO(zlib.decompress(data)), allow_pickle=False) as z:
+        return {k: z[k] for k in z.files}
+
+
+class Store:
+    """The knowledge of one home in one database.
+
+    >>> from homecog.home import load_home
+    >>> store = Store("sqlite://", load_home("paper"))   # in memory
+    >>> store.has_tree()
+    False
+    """
+
+    def __init__(self, url: str | None, home: Home) -> None:
+        self.home = home
+        self.url = url or default_url(home)
+        self.engine = make_engine(self.url)
+        self._versions: dict[str, int] = {}
+        try:
+            self._migrate()
+            self._check_home()
+        except StoreError:
+            self.engine.dispose()
+            raise
+        except (SQLAlchemyError, DBAPIError, OSError) as e:
+            self.engine.dispose()
+            raise StoreError(_db_message(self.url, e)) from None
+
+    # -- schema ---------------------------------------------------------------------------------
+    def _migrate(self) -> None:
+        from alembic import command
+        from alembic.config import Config
+
+        cfg = Config()
+        cfg.set_main_option("script_location", str(Path(__file__).parent / "migrations"))
+        with self.engine.begin() as conn:
+            cfg.attributes["connection"] = conn
+            command.upgrade(cfg, "head")
+
+    def _check_home(self) -> None:
+        with self.engine.begin() as conn:
+            row = conn.execute(select(HomeRow).where(HomeRow.id == 1)).first()
+            if row is None:
+                return
+            if row.content_hash != self.home.content_hash:
+                raise StoreError(
+                    f"--db {redact(self.url)}: holds the knowledge of home '{row.name}' "
+                    f"({row.content_hash[:12]}), not of home '{self.home.name}' "
+                    f"({self.home.content_hash[:12]}); use another database"
+                )
+
+    @contextmanager
+    def _tx(self) -> Iterator[Connection]:
+        try:
+            with self.engine.begin() as conn:
+                yield conn
+        except StoreError:
+            raise
+        except (OperationalError, DBAPIError) as e:
+            raise StoreError(_db_message(self.url, e)) from None
+
+    def close(self) -> None:
+        self.engine.dispose()
+
+    # -- reading --------------------------------------------------------------------------------
+    def has_tree(self) -> bool:
+        with self._tx() as conn:
+            row = conn.execute(select(HomeRow.built_at).where(HomeRow.id == 1)).first()
+            return row is not None and row[0] is not None
+
+    def mode(self) -> str | None:
+        with self._tx() as conn:
+            row = conn.execute(select(HomeRow.mode).where(HomeRow.id == 1)).first()
+            return None if row is None else row[0]
+
+    def counts(self) -> dict[str, int]:
+        """Rows per table: nodes, clusters (shared and per user), experiences, users."""
+        with self._tx() as conn:
+            return {
+                "nodes": conn.execute(select(func.count()).select_from(NodeRow)).scalar_one(),
+                "clusters": conn.execute(
+                    select(func.count()).select_from(ClusterRow).where(ClusterRow.user.is_(None))
+                ).scalar_one(),
+                "user_clusters": conn.execute(
+                    select(func.count()).select_from(ClusterRow).where(ClusterRow.user.is_not(None))
+                ).scalar_one(),
+                "experiences": conn.execute(select(func.count()).select_from(ExperienceRow)).scalar_one(),
+                "corrections": conn.execute(
+                    select(func.count()).select_from(ExperienceRow).where(ExperienceRow.kind == "correction")
+                ).scalar_one(),
+                "users": conn.execute(select(func.count()).select_from(UserRow)).scalar_one(),
+            }
+
+    def load_tree(self) -> IHDRTree:
+        """The tree as stored: shared nodes and clusters, and every user's layer."""
+        with self._tx() as conn:
+            home_row = conn.execute(select(HomeRow).where(HomeRow.id == 1)).first()
+            if home_row is None or home_row.built_at is None:
+                raise StoreError(f"--db {redact(self.url)}: no knowledge tree yet; run homecog build")
+            tree = IHDRTree(self.home, mode=home_row.mode)
+            state = json.loads(home_row.state or "{}")
+            nodes = {n.id: n for n in tree.root.iter_dfs()}
+            for row in conn.execute(select(NodeRow)):
+                node = nodes.get(row.id)
+                if node is None or node.name != row.name:
+                    raise StoreError(f"--db {redact(self.url)}: the stored tree does not fit the home")
+                node.count, node.position_sum = row.count, row.position_sum
+            for row in conn.execute(
+                select(ClusterRow).order_by(
+                    ClusterRow.user, ClusterRow.node_id, ClusterRow.seq, ClusterRow.id
+                )
+            ):
+                cluster = self._cluster(row)
+                node = nodes[row.node_id]
+                if row.user is None:
+                    tree._restore_shared(node, cluster)
+                else:
+                    tree._restore_user(row.user, node.service, cluster)
+            tree._restore_state(state)
+            for row in conn.execute(select(UserRow.name, UserRow.version)):
+                self._versions[row.name] = row.version
+            return tree
+
+    @staticmethod
+    def _cluster(row: Any) -> Cluster:
+        return Cluster(
+            id=row.tree_id,
+            conditions=_decode_conditions(row.conditions),
+            count=row.count,
+            position_sum=row.position_sum,
+            user=row.user,
+            polarity=row.polarity,
+            seed=None if row.seed is None else tuple(json.loads(row.seed)),
+            seq=row.seq,
+        )
+
+    def refresh_user(self, tree: IHDRTree, user: str) -> None:
+        """Reload a user's layer when another process has corrected since it was read."""
+        with self._tx() as conn:
+            self._reload_user_if_stale(conn, tree, user, lock=False)
+
+    def _reload_user_if_stale(self, conn: Connection, tree: IHDRTree, user: str, *, lock: bool) -> int:
+        query = select(UserRow.version).where(UserRow.name == user)
+        if lock and conn.dialect.name != "sqlite":
+            query = query.with_for_update()
+        version = conn.execute(query).scalar_one_or_none() or 0
+        if version != self._versions.get(user, 0):
+            layer: dict[int, list[Cluster]] = {}
+            rows = conn.execute(
+                select(ClusterRow)
+                .where(ClusterRow.user == user)
+                .order_by(ClusterRow.node_id, ClusterRow.seq, ClusterRow.id)
+            )
+            service_of = {n.id: n.service for n in tree.root.iter_dfs()}
+            for row in rows:
+                layer.setdefault(service_of[row.node_id], []).append(self._cluster(row))
+            tree._replace_user(user, layer, version)
+            self._versions[user] = version
+        return version
+
+    # -- writing --------------------------------------------------------------------------------
+    def save_build(self, tree: IHDRTree, samples: SampleSet, *, seconds: float | None = None) -> None:
+        """Store a freshly built tree and its samples, in one transaction.
+
+        Users' corrections already in the log are replayed on the new tree, so a rebuild
+        (another mode, a retrained Q table) loses none of them.
+        """
+        corrections = self._corrections()
+        for kind, user, payload in corrections:
+            tree._replay(kind, user, payload)
+        with self._tx() as conn:
+            now = datetime.now(UTC).replace(tzinfo=None)
+            build_id = (conn.execute(select(func.max(ExperienceRow.id))).scalar_one() or 0) + 1
+            conn.execute(delete(ClusterRow))
+            conn.execute(update(NodeRow).values(parent_id=None))
+            conn.execute(delete(NodeRow))
+            conn.execute(delete(HomeRow))
+            conn.execute(
+                insert(HomeRow),
+                [
+                    {
+                        "id": 1,
+                        "name": self.home.name,
+                        "content_hash": self.home.content_hash,
+                        "mode": tree.mode,
+                        "built_at": now,
+                        "state": json.dumps(tree._state()),
+                    }
+                ],
+            )
+            self._write_nodes(conn, tree)
+            self._write_clusters(conn, tree, None)
+            for user in tree.users:
+                self._write_clusters(conn, tree, user)
+            parts = max(1, -(-len(samples) // SAMPLES_PER_ROW))
+            numeric = [j for j, d in enumerate(samples.space.dims) if d.numeric]
+            rows = []
+            for part in range(parts):
+                chunk = slice(part * SAMPLES_PER_ROW, (part + 1) * SAMPLES_PER_ROW)
+                rows.append(
+                    {
+                        "kind": "samples",
+                        "user": None,
+                        "created_at": now,
+                        "payload": json.dumps(
+                            {
+                                "build": build_id,
+                                "part": part,
+                                "parts": parts,
+                                "mode": tree.mode,
+                                "seconds": seconds,
+                            }
+                        ),
+                        "data": _pack(
+                            {
+                                "codes": samples.codes[chunk],
+                                "readings": samples.readings[chunk][:, numeric],
+                                "numeric": np.array(numeric, dtype=np.int64),
+                                "positions": samples.positions[chunk],
+                                "masks": samples.masks[chunk],
+                            }
+                        ),
+                    }
+                )
+            conn.execute(insert(ExperienceRow), rows)
+            for user in tree.users:
+                self._ensure_user(conn, user)
+                conn.execute(update(UserRow).where(UserRow.name == user).values(version=UserRow.version + 1))
+        self._versions = {}
+
+    def _write_nodes(self, conn: Connection, tree: IHDRTree) -> None:
+        conn.execute(
+            insert(NodeRow),
+            [
+                {
+                    "id": n.id,
+                    "parent_id": n.parent.id if n.parent else None,
+                    "name": n.name,
+                    "kind": n.kind,
+                    "service": n.service,
+                    "count": n.count,
+                    "position_sum": n.position_sum,
+                }
+                for n in tree.root.iter_dfs()
+            ],
+        )
+
+    def _write_clusters(
+        self, conn: Connection, tree: IHDRTree, user: str | None, services: set[int] | None = None
+    ) -> None:
+        if user is None:
+            pairs = list(tree.shared_clusters())
+        else:
+            nodes = {n.service: n for n in tree.root.iter_dfs() if n.kind == "service"}
+            pairs = [
+                (nodes[a], c)
+                for a, cs in sorted(tree.user_clusters(user).items())
+                if services is None or a in services
+                for c in cs
+            ]
+        if pairs:
+            conn.execute(
+                insert(ClusterRow),
+                [
+                    {
+                        "node_id": node.id,
+                        "user": user,
+                        "tree_id": c.id,
+                        "polarity": c.polarity,
+                        "conditions": _encode_conditions(c.conditions),
+                        "count": c.count,
+                        "position_sum": c.position_sum,
+                        "seq": c.seq,
+                        "seed": None if c.seed is None else json.dumps(list(c.seed)),
+                    }
+                    for node, c in pairs
+                ],
+            )
+
+    def _ensure_user(self, conn: Connection, user: str) -> None:
+        dialect = conn.dialect.name
+        values = {"name": user, "version": 0, "corrections": 0}
+        if dialect == "postgresql":
+            from sqlalchemy.dialects.postgresql import insert as pg_insert
+
+            conn.execute(pg_insert(UserRow).values(values).on_conflict_do_nothing())
+        elif dialect in ("mysql", "mariadb"):
+            conn.execute(insert(UserRow).values(values).prefix_with("IGNORE"))
+        else:
+            from sqlalchemy.dialects.sqlite import insert as sqlite_insert
+
+            conn.execute(sqlite_insert(UserRow).values(values).on_conflict_do_nothing())
+
+    def correct(
+        self, tree: IHDRTree, point: Point, want: list[str], user: str
+    ) -> tuple[list[str], list[str]]:
+        """Apply and store a correction in one transaction; returns (added, rejected)."""
+        if not user or len(user) > 200:
+            raise StoreError("--user must be 1 to 200 characters")
+        try:
+            with self._tx() as conn:
+                self._ensure_user(conn, user)
+                version = self._reload_user_if_stale(conn, tree, user, lock=True)
+                added, rejected = tree.correct_one(point, want, user)
+                touched = {tree.home.service_index(s) for s in added + rejected}
+                if touched:
+                    node_ids = [
+                        n.id for n in tree.root.iter_dfs() if n.kind == "service" and n.service in touched
+                    ]
+                    conn.execute(
+                        delete(ClusterRow).where(ClusterRow.user == user, ClusterRow.node_id.in_(node_ids))
+                    )
+                    self._write_clusters(conn, tree, user, touched)
+                payload = {
+                    "context": tree.space.context(point),
+                    "codes": list(point.codes),
+                    "readings": list(point.readings),
+                    "want": want,
+                    "added": added,
+                    "rejected": rejected,
+                }
+                conn.execute(
+                    insert(ExperienceRow),
+                    [
+                        {
+                            "kind": "correction",
+                            "user": user,
+                            "created_at": datetime.now(UTC).replace(tzinfo=None),
+                            "payload": json.dumps(payload),
+                            "data": None,
+                        }
+                    ],
+                )
+                conn.execute(
+                    update(UserRow)
+                    .where(UserRow.name == user)
+                    .values(version=UserRow.version + 1, corrections=UserRow.corrections + 1)
+                )
+        except BaseException:
+            self._versions.pop(user, None)  # the tree may hold what did not commit: reload next time
+            tree._replace_user(user, {}, -1)
+            raise
+        self._versions[user] = version + 1
+        return added, rejected
+
+    # -- the log ----------------------------------------------------------------------------------
+    def _corrections(self) -> list[tuple[str, str | None, dict[str, Any]]]:
+        with self._tx() as conn:
+            rows = conn.execute(
+                select(ExperienceRow.kind, ExperienceRow.user, ExperienceRow.payload)
+                .where(ExperienceRow.kind.in_(["correction", "sample"]))
+                .order_by(ExperienceRow.id)
+            )
+            return [(r.kind, r.user, json.loads(r.payload)) for r in rows]
+
+    def rebuild(self) -> IHDRTree:
+        """The tree rebuilt from the experience log alone: the last build's samples, then every
+        single sample and correction in the order they were committed."""
+        with self._tx() as conn:
+            rows = conn.execute(
+                select(
+                    ExperienceRow.id,
+                    ExperienceRow.kind,
+                    ExperienceRow.user,
+                    ExperienceRow.payload,
+                    ExperienceRow.data,
+                ).order_by(ExperienceRow.id)
+            ).all()
+        builds = [json.loads(r.payload)["build"] for r in rows if r.kind == "samples"]
+        if not builds:
+            raise StoreError(f"--db {redact(self.url)}: the log holds no samples; run homecog build")
+        last = max(builds)
+        parts = [r for r in rows if r.kind == "samples" and json.loads(r.payload)["build"] == last]
+        meta = json.loads(parts[0].payload)
+        arrays = [_unpack(r.data) for r in sorted(parts, key=lambda r: json.loads(r.payload)["part"])]
+        samples = self._samples_from(arrays)
+        tree = IHDRTree(self.home, mode=meta["mode"])
+        tree.learn_many(samples)
+        for r in rows:
+            if r.kind in ("correction", "sample"):
+                tree._replay(r.kind, r.user, json.loads(r.payload))
+        return tree
+
+    def _samples_from(self, arrays: list[dict[str, np.ndarray]]) -> SampleSet:
+        from homecog.knowledge.space import Space
+
+        space = Space(self.home)
+        codes = np.concatenate([a["codes"] for a in arrays])
+        readings = np.full((len(codes), len(space.dims)), np.nan)
+        numeric = arrays[0]["numeric"]
+        readings[:, numeric] = np.concatenate([a["readings"] for a in arrays])
+        return SampleSet(
+            space=space,
+            codes=codes,
+            readings=readings,
+            positions=np.concatenate([a["positions"] for a in arrays]),
+            masks=np.concatenate([a["masks"] for a in arrays]),
+        )
+
+    def drop_all(self) -> None:
+        """Remove every table (tests use it to leave a server database clean)."""
+        with self.engine.begin() as conn:
+            Base.metadata.drop_all(conn)
+            conn.execute(text("DROP TABLE IF EXISTS alembic_version"))
