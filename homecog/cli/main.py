@@ -238,6 +238,147 @@ def train(
     stdout.print(f"Q table: {path}")
 
 
+# -- homecog build / cognize / correct ---------------------------------------------------------
+DbOption = Annotated[
+    str | None,
+    typer.Option(
+        "--db", help="Database URL (default: $HOMECOG_DB or a SQLite file under the data directory)."
+    ),
+]
+ContextOption = Annotated[
+    str, typer.Option("--context", help="name=value for every feature and device, comma-separated.")
+]
+UserOption = Annotated[str, typer.Option("--user", help="The household member.")]
+
+
+def _status(message: str) -> None:
+    from homecog.cli.output import stderr
+
+    if stderr.is_terminal:
+        stderr.print(message, style="dim")
+
+
+@app.command()
+def build(
+    home: HomeOption = "paper",
+    q: Annotated[
+        Path | None, typer.Option("--q", help="The Q table (default: the cached one, trained if missing).")
+    ] = None,
+    db: DbOption = None,
+    mode: Annotated[
+        str,
+        typer.Option(help="multi (several clusters per service) or paper (Algorithms 2 and 3 as published)."),
+    ] = "multi",
+    seed: Annotated[int, typer.Option(help="Seed of the random readings inside bins.")] = 0,
+    json: JsonOption = False,
+) -> None:
+    """Build the knowledge tree from the Q table's samples and store it."""
+    from homecog.knowledge.ihdr import MODES
+    from homecog.knowledge.pipeline import build as run_build
+    from homecog.knowledge.store import Store, redact
+
+    if mode not in MODES:
+        raise UsageProblemError(f"--mode must be one of {', '.join(MODES)}, got {mode!r}")
+    if seed < 0:
+        raise UsageProblemError(f"--seed must be 0 or more, got {seed}")
+    h = load_home(home)
+    if q is not None and not q.exists():
+        raise UsageProblemError(f"--q {q}: no such file")
+    store = Store(db, h)
+    try:
+        result = run_build(h, store, q_path=q, mode=mode, seed=seed, progress=_status)
+        counts = store.counts()
+    finally:
+        store.close()
+    data = {
+        "samples": result.samples,
+        "nodes": counts["nodes"],
+        "clusters": counts["clusters"],
+        "seconds": round(result.seconds, 3),
+        "db": redact(store.url),
+        "mode": mode,
+    }
+    if json:
+        emit_json(data)
+        return
+    stdout.print(
+        f"built the {mode} tree of {h.name} from {result.samples:,} samples in {result.seconds:.1f} s: "
+        f"{counts['nodes']} nodes, {counts['clusters']:,} clusters"
+    )
+    stdout.print(f"database: {data['db']}")
+
+
+@app.command()
+def cognize(
+    context: ContextOption,
+    home: HomeOption = "paper",
+    user: UserOption = "default",
+    db: DbOption = None,
+    json: JsonOption = False,
+) -> None:
+    """The services the user needs in a context, in priority order, and why."""
+    from homecog.knowledge.pipeline import open_tree
+    from homecog.knowledge.space import Space, parse_context
+    from homecog.knowledge.store import Store
+
+    h = load_home(home)
+    point = parse_context(context, Space(h))
+    store = Store(db, h)
+    try:
+        tree = open_tree(h, store, progress=_status)
+    finally:
+        store.close()
+    result = tree.explain_one(point, user=user)
+    if json:
+        emit_json(result.as_dict())
+        return
+    if result.unknown:
+        stdout.print("unknown context: no experience answers it; tell the robot with homecog correct")
+        return
+    if not result.services:
+        stdout.print("nothing to do: the home is as the user likes it")
+        return
+    for i, e in enumerate(result.explanations, 1):
+        why = "; ".join(f"{k} {v}" for k, v in e.conditions.items()) or "always"
+        source = f"{e.user}'s correction" if e.user else f"cluster {e.cluster}"
+        stdout.print(f"{i}. {e.service}  [dim]({e.category}; {source}: {why})[/dim]")
+
+
+@app.command()
+def correct(
+    context: ContextOption,
+    want: Annotated[
+        str, typer.Option("--want", help="The services the user wants, comma-separated (empty: none).")
+    ],
+    home: HomeOption = "paper",
+    user: UserOption = "default",
+    db: DbOption = None,
+    json: JsonOption = False,
+) -> None:
+    """Tell the robot which services the user wants in a context; it learns at once."""
+    from homecog.knowledge.pipeline import open_tree
+    from homecog.knowledge.space import Space, parse_context, parse_services
+    from homecog.knowledge.store import Store
+
+    h = load_home(home)
+    point = parse_context(context, Space(h))
+    wanted = parse_services(want, h)
+    store = Store(db, h)
+    try:
+        tree = open_tree(h, store, progress=_status)
+        added, rejected = store.correct(tree, point, wanted, user)
+        experiences = store.experience_count()
+    finally:
+        store.close()
+    if json:
+        emit_json({"added": added, "rejected": rejected, "experiences": experiences, "user": user})
+        return
+    stdout.print(
+        f"learned for {user}: added {', '.join(added) or 'nothing'}; "
+        f"rejected {', '.join(rejected) or 'nothing'} ({experiences:,} experiences)"
+    )
+
+
 # -- entry point -------------------------------------------------------------------------------
 def main(argv: list[str] | None = None) -> int:
     """Run the command line; errors become one line on stderr and exit status 2."""

@@ -327,32 +327,80 @@ class Home:
         """Device states of the optimum: wanted states where cared for, the rest unchanged."""
         return tuple(s if w is None else w for s, w in zip(states, self.wanted(codes), strict=True))
 
+    def optimal_service_sets(
+        self, codes: Sequence[int], states: Sequence[bool], limit: int = 256
+    ) -> list[frozenset[str]]:
+        """Every set of services that takes a context to its optimum: the services of a sequence
+        in which each service lowers the distance and none is prohibited (SPEC §3, §9). Smallest
+        sets first (then fewest devices set, then service order).
+
+        With services that each set one device there is exactly one such set. A service that
+        sets several (``AllQuiet: {speaker: off, hood: off}``) can make several sets optimal.
+        Where the rules leave no such sequence, the per-device choice without order is returned.
+
+        >>> from homecog.home import load_home
+        >>> home = load_home("paper")
+        >>> codes, states = home.discretize({"time": "19:00", "temperature": 30,
+        ...     "illumination": 200, "location": "sofa", "posture": "sit", "behavior": "watch_tv",
+        ...     "window": "on", "curtain": "on", **{d: "off" for d in home.device_names[2:]}})
+        >>> sorted(home.optimal_service_sets(codes, states)[0])
+        ['CloseWindow', 'SendDrinks', 'TurnOnACL', 'TurnOnLight', 'TurnOnTVL']
+        """
+        wanted = self.wanted(codes)
+        needs = frozenset(self.needs_of(codes))
+        effects = [tuple((self.device_index(d), v) for d, v in s.sets) for s in self.services]
+
+        def distance(st: tuple[bool, ...], pending: frozenset[int]) -> int:
+            return sum(1 for x, w in zip(st, wanted, strict=True) if w is not None and x != w) + len(pending)
+
+        memo: dict[tuple[tuple[bool, ...], frozenset[int]], set[frozenset[int]]] = {}
+
+        def paths(st: tuple[bool, ...], pending: frozenset[int]) -> set[frozenset[int]]:
+            key = (st, pending)
+            if key in memo:
+                return memo[key]
+            d = distance(st, pending)
+            out: set[frozenset[int]] = {frozenset()} if d == 0 else set()
+            for a, effect in enumerate(effects):
+                if d == 0 or len(out) >= limit or self.is_prohibited(a, codes, st):
+                    continue
+                if effect:
+                    nxt = list(st)
+                    for dev, value in effect:
+                        nxt[dev] = value
+                    st2, pend2 = tuple(nxt), pending
+                else:
+                    st2, pend2 = st, pending - {a}
+                if distance(st2, pend2) < d:
+                    out |= {rest | {a} for rest in paths(st2, pend2)}
+            memo[key] = out
+            return out
+
+        found = paths(tuple(bool(x) for x in states), needs)
+        if not found:  # conflicting rules: fall back to one setter per wrong device, no order
+            chosen = set(needs)
+            for d, (x, w) in enumerate(zip(states, wanted, strict=True)):
+                if w is not None and x != w:
+                    setter = next((a for a, e in enumerate(effects) if (d, w) in e), None)
+                    if setter is not None:
+                        chosen.add(setter)
+            found = {frozenset(chosen)}
+
+        def key(chosen: frozenset[int]) -> tuple[int, int, tuple[int, ...]]:
+            return (len(chosen), sum(len(effects[a]) for a in chosen), tuple(sorted(chosen)))
+
+        return [frozenset(self.services[a].name for a in c) for c in sorted(found, key=key)]
+
     def services_to_optimum(self, codes: Sequence[int], states: Sequence[bool]) -> list[str]:
         """The set of services that takes a context to its optimum (the ground truth).
 
-        For each device not in its wanted state, the service that sets it (the first
-        in service order whose ``set`` moves it there and changes nothing the comfort
-        rules care about); plus the pending needs.
+        The first of :meth:`optimal_service_sets`, in service order; empty when some wrong
+        device has no service that can fix it.
         """
-        wanted = self.wanted(codes)
-        out: list[str] = []
-        for d, (state, want) in enumerate(zip(states, wanted, strict=True)):
-            if want is None or state == want:
-                continue
-            name = self.devices[d].name
-            for s in self.services:
-                effect = dict(s.sets)
-                if effect.get(name) is not want:
-                    continue
-                harmless = all(
-                    wanted[self.device_index(other)] in (None, value) or other == name
-                    for other, value in s.sets
-                )
-                if harmless:
-                    out.append(s.name)
-                    break
-        out.extend(self.services[i].name for i in self.needs_of(codes))
-        return out
+        sets = self.optimal_service_sets(codes, states)
+        if not sets:
+            return []
+        return [s.name for s in self.services if s.name in sets[0]]
 
     # -- readings -> discrete context ------------------------------------------------
     def discretize(self, readings: Mapping[str, object]) -> tuple[tuple[int, ...], tuple[bool, ...]]:

@@ -771,6 +771,9 @@ class IHDRTree:
                     other.conditions = merged
                     other.count += 1
                     other.seq = new.seq
+                    # keep the list in seq order, the order the store loads a layer in
+                    clusters.remove(other)
+                    clusters.append(other)
                     return
         clusters.append(new)
 

@@ -215,8 +215,9 @@ def make_samples(core: Core, q: np.ndarray, *, seed: int = 0, limit: int | None 
         low, high = bounds[codes[:, j], 0], bounds[codes[:, j], 1]
         if dim.kind == "clock":  # a bin wrapping midnight: draw on the unwrapped span
             high = np.where(high <= low, high + 24, high)
-        values = low + (high - low) * rng.random(n_points)
-        readings.append(np.round(values % 24 if dim.kind == "clock" else values, 2))
+        # two decimals, rounded down so that a reading never leaves its half-open bin
+        values = np.maximum(np.floor((low + (high - low) * rng.random(n_points)) * 100) / 100, low)
+        readings.append(values % 24 if dim.kind == "clock" else values)
 
     numeric = np.full((n_points, len(space.dims)), np.nan)
     for j, r in enumerate(readings):

@@ -18,6 +18,8 @@ from __future__ import annotations
 import io
 import json
 import os
+import random
+import time
 import zlib
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -60,10 +62,22 @@ SCHEMA_VERSION = "0001"
 _LongBlob = LargeBinary().with_variant(mysql.LONGBLOB(), "mysql", "mariadb")
 _LongText = Text().with_variant(mysql.LONGTEXT(), "mysql", "mariadb")
 SAMPLES_PER_ROW = 32768
+CONFLICT_RETRIES = 50  # attempts of a correction that the server aborts for a deadlock
 
 
 class StoreError(HomecogError):
     """A database that cannot be reached, or that holds knowledge of another home."""
+
+
+class _ConflictError(StoreError):
+    """A transaction the server aborted for a deadlock or a serialization failure: retry it."""
+
+
+def _is_conflict(e: DBAPIError) -> bool:
+    orig = e.orig
+    code = orig.args[0] if orig is not None and orig.args else None
+    # MySQL/MariaDB 1213: deadlock; PostgreSQL 40P01: deadlock, 40001: serialization failure
+    return code == 1213 or getattr(orig, "sqlstate", None) in ("40P01", "40001")
 
 
 class Base(DeclarativeBase):
@@ -276,6 +290,8 @@ class Store:
         except StoreError:
             raise
         except (OperationalError, DBAPIError) as e:
+            if _is_conflict(e):
+                raise _ConflictError(_db_message(self.url, e)) from None
             raise StoreError(_db_message(self.url, e)) from None
 
     def close(self) -> None:
@@ -309,6 +325,12 @@ class Store:
                 ).scalar_one(),
                 "users": conn.execute(select(func.count()).select_from(UserRow)).scalar_one(),
             }
+
+    def experience_count(self) -> int:
+        """Experiences in the log: every sample of every build, every single sample and correction."""
+        with self._tx() as conn:
+            rows = conn.execute(select(ExperienceRow.kind, ExperienceRow.payload))
+            return sum(json.loads(p).get("count", 0) if k == "samples" else 1 for k, p in rows)
 
     def load_tree(self) -> IHDRTree:
         """The tree as stored: shared nodes and clusters, and every user's layer."""
@@ -428,6 +450,7 @@ class Store:
                                 "parts": parts,
                                 "mode": tree.mode,
                                 "seconds": seconds,
+                                "count": len(samples.codes[chunk]),
                             }
                         ),
                         "data": _pack(
@@ -513,7 +536,26 @@ class Store:
     def correct(
         self, tree: IHDRTree, point: Point, want: list[str], user: str
     ) -> tuple[list[str], list[str]]:
-        """Apply and store a correction in one transaction; returns (added, rejected)."""
+        """Apply and store a correction in one transaction; returns (added, rejected).
+
+        A transaction the server aborts for a deadlock between concurrent corrections
+        (MariaDB's locks on the users and clusters indexes) is run again.
+        """
+        for attempt in range(CONFLICT_RETRIES):
+            try:
+                return self._correct_once(tree, point, want, user)
+            except _ConflictError as e:
+                import sys
+
+                print("RETRY", attempt, e, file=sys.stderr)
+                if attempt == CONFLICT_RETRIES - 1:
+                    raise
+                time.sleep(random.uniform(0, 0.01 * (attempt + 1)))
+        raise AssertionError("unreachable")
+
+    def _correct_once(
+        self, tree: IHDRTree, point: Point, want: list[str], user: str
+    ) -> tuple[list[str], list[str]]:
         if not user or len(user) > 200:
             raise StoreError("--user must be 1 to 200 characters")
         try:

@@ -1,0 +1,95 @@
+"""Random scenarios with their ground truth, and micro precision and recall (SPEC §9).
+
+A scenario is a full context: a reading for every feature (uniform inside a random bin)
+and a random state for every device. Its ground truth is the set of services that takes
+it to the optimum under a truth home.
+
+>>> from homecog.home import load_home
+>>> home = load_home("paper")
+>>> scenarios = random_scenarios(home, 3, seed=0)
+>>> len(scenarios), sorted(scenarios[0].context)[:3]
+(3, ['ac_bedroom', 'ac_living', 'behavior'])
+>>> scores([["A", "B"]], [["A", "C"]])
+{'precision': 0.5, 'recall': 0.5, 'f1': 0.5, 'exact': 0.0}
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from homecog.home.model import Home
+from homecog.knowledge.space import Point, Space, finite_span
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """A context as a scenario-file row, its point, and the services the truth home wants."""
+
+    context: dict[str, str]
+    point: Point
+    truth: frozenset[str]
+    alternatives: tuple[frozenset[str], ...] = ()
+
+    def truth_for(self, predicted: Sequence[str]) -> frozenset[str]:
+        """The optimal set that agrees best with a prediction (they differ only where services
+        that set several devices make more than one set optimal)."""
+        if not self.alternatives:
+            return self.truth
+        p = set(predicted)
+        return max(self.alternatives, key=lambda t: (len(p & t), -len(t ^ p)))
+
+
+def random_scenarios(home: Home, n: int, *, seed: int = 0, truth: Home | None = None) -> list[Scenario]:
+    """``n`` scenarios of a home, truth from ``truth`` (default: the same home)."""
+    rng = np.random.default_rng(seed)
+    space = Space(home)
+    judge = truth or home
+    out = []
+    for _ in range(n):
+        codes, readings = [], []
+        for f in home.features:
+            k = int(rng.integers(f.radix))
+            codes.append(k)
+            if f.bins is None:
+                readings.append(None)
+                continue
+            low, high = finite_span(f.bins)[2 * k : 2 * k + 2]
+            if f.kind == "clock" and high <= low:
+                high += 24
+            x = max(float(np.floor((low + (high - low) * rng.random()) * 100) / 100), low)
+            readings.append(x % 24 if f.kind == "clock" else x)
+        states = [bool(rng.integers(2)) for _ in home.devices]
+        point = Point(
+            codes=tuple(codes) + tuple(int(s) for s in states),
+            readings=tuple(readings) + (None,) * len(states),
+        )
+        context = space.context(point)
+        point = space.point(context)  # what a reader of the scenario file would get
+        sets = judge.optimal_service_sets(
+            point.codes[: len(codes)], tuple(bool(s) for s in point.codes[len(codes) :])
+        )
+        truth_set = sets[0] if sets else frozenset()
+        out.append(
+            Scenario(
+                context=context,
+                point=point,
+                truth=truth_set,
+                alternatives=tuple(sets) if len(sets) > 1 else (),
+            )
+        )
+    return out
+
+
+def scores(predicted: Sequence[Sequence[str]], truth: Sequence[Sequence[str]]) -> dict[str, float]:
+    """Micro precision Σ|p∩t|/Σ|p|, recall Σ|p∩t|/Σ|t|, their F1, and the exact-match rate."""
+    hit = sum(len(set(p) & set(t)) for p, t in zip(predicted, truth, strict=True))
+    n_pred = sum(len(set(p)) for p in predicted)
+    n_true = sum(len(set(t)) for t in truth)
+    precision = hit / n_pred if n_pred else 1.0
+    recall = hit / n_true if n_true else 1.0
+    f1 = 2 * precision * recall / (precision + recall) if precision + recall else 0.0
+    exact = sum(set(p) == set(t) for p, t in zip(predicted, truth, strict=True)) / max(1, len(truth))
+    return {"precision": precision, "recall": recall, "f1": f1, "exact": exact}

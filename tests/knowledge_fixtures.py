@@ -1,0 +1,40 @@
+"""Trained and built homes for the knowledge tests, made once per test session."""
+
+from __future__ import annotations
+
+import functools
+from pathlib import Path
+
+from homecog.environment.core import Core
+from homecog.home import Home, load_home
+from homecog.knowledge.ihdr import IHDRTree
+from homecog.knowledge.samples import SampleSet, make_samples
+from homecog.learning.sarsa import SarsaConfig, train
+
+HOMES = Path(__file__).parent / "homes"
+EPISODES = {"studio": 30_000, "flat": 600_000, "paper": 3_000_000}
+
+
+@functools.cache
+def home(name: str) -> Home:
+    return load_home(name if name == "paper" else HOMES / f"{name}.yaml")
+
+
+@functools.cache
+def q_values(name: str):
+    h = home(name)
+    result = train(h, SarsaConfig(episodes=EPISODES[name], seed=0))
+    assert result.greedy_optimal_rate >= 0.999, (name, result.greedy_optimal_rate)
+    return result.q_table
+
+
+@functools.cache
+def samples(name: str) -> SampleSet:
+    return make_samples(Core(home(name)), q_values(name).q, seed=0)
+
+
+@functools.cache
+def tree(name: str, mode: str = "multi") -> IHDRTree:
+    t = IHDRTree(home(name), mode=mode)
+    t.learn_many(samples(name))
+    return t
