@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
+from servers import fresh_database
 
 from homecog.environment.core import Core
 from homecog.home import Home, load_home
@@ -36,3 +38,25 @@ def studio() -> Home:
 @pytest.fixture(scope="session")
 def studio_core(studio: Home) -> Core:
     return Core(studio)
+
+
+# -- databases ------------------------------------------------------------------------------------
+@pytest.fixture(params=["sqlite", "postgresql", "mariadb"])
+def db_url(request: pytest.FixtureRequest, tmp_path: Path) -> Iterator[str]:
+    """A fresh, empty database per test: a SQLite file, or a new database on a server, dropped
+    afterwards (skipped, saying why, where the server cannot be reached)."""
+    if request.param == "sqlite":
+        yield f"sqlite:///{tmp_path / 'homecog.sqlite'}"
+        return
+    with fresh_database(request.param) as url:
+        yield url
+
+
+@pytest.fixture(scope="session")
+def studio_build(studio: Home, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A Q table of the studio home (20,000 episodes), saved once per session: with it
+    ``homecog.knowledge.pipeline.build(studio, store, q_path=studio_build)`` takes a second."""
+    from homecog.learning.sarsa import SarsaConfig, train
+
+    result = train(studio, SarsaConfig(episodes=20_000, seed=0))
+    return result.q_table.save(tmp_path_factory.mktemp("studio") / "studio-q.npz")

@@ -35,8 +35,10 @@ The learner speaks river's API:
 ...                          "SendDrinks": {"behavior"}})
 >>> tree.predict_one(x)
 ['TurnOnTVL', 'SendDrinks']
->>> tree.predict_one({**x, "behavior": "read"})
+>>> tree.predict_one({**x, "location": "bed"})   # the living-room TV matters on the sofa only
 ['SendDrinks']
+>>> tree.predict_one({**x, "behavior": "read"})   # both were learned for watching TV
+[]
 """
 
 from __future__ import annotations

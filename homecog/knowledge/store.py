@@ -47,7 +47,7 @@ from sqlalchemy import (
     update,
 )
 from sqlalchemy.dialects import mysql
-from sqlalchemy.engine import Connection, Engine
+from sqlalchemy.engine import Connection, Engine, make_url
 from sqlalchemy.exc import ArgumentError, DBAPIError, NoSuchModuleError, OperationalError, SQLAlchemyError
 from sqlalchemy.orm import DeclarativeBase, Mapped, mapped_column
 
@@ -63,6 +63,7 @@ _LongBlob = LargeBinary().with_variant(mysql.LONGBLOB(), "mysql", "mariadb")
 _LongText = Text().with_variant(mysql.LONGTEXT(), "mysql", "mariadb")
 SAMPLES_PER_ROW = 32768
 CONFLICT_RETRIES = 50  # attempts of a correction that the server aborts for a deadlock
+CONNECT_TIMEOUT = 10  # seconds to wait for a database server (unless the URL says connect_timeout)
 
 
 class StoreError(HomecogError):
@@ -188,7 +189,15 @@ def make_engine(url: str) -> Engine:
                 conn.exec_driver_sql("BEGIN IMMEDIATE")
 
             return engine
-        return create_engine(url, pool_pre_ping=True)
+        # a server that drops packets must not hang a command: libpq waits forever by default
+        parsed = make_url(url)
+        connect_args: dict[str, Any] = {}
+        if (
+            parsed.get_backend_name() in ("postgresql", "mysql", "mariadb")
+            and "connect_timeout" not in parsed.query
+        ):
+            connect_args["connect_timeout"] = CONNECT_TIMEOUT
+        return create_engine(url, pool_pre_ping=True, connect_args=connect_args)
     except (ArgumentError, NoSuchModuleError, ValueError) as e:
         raise StoreError(f"--db {redact(url)}: not a database URL ({e})") from None
     except ImportError as e:
@@ -544,10 +553,7 @@ class Store:
         for attempt in range(CONFLICT_RETRIES):
             try:
                 return self._correct_once(tree, point, want, user)
-            except _ConflictError as e:
-                import sys
-
-                print("RETRY", attempt, e, file=sys.stderr)
+            except _ConflictError:
                 if attempt == CONFLICT_RETRIES - 1:
                     raise
                 time.sleep(random.uniform(0, 0.01 * (attempt + 1)))

@@ -1,0 +1,360 @@
+"""The knowledge store (SPEC §6, §7) against SQLite, PostgreSQL and MariaDB.
+
+Every test runs once per database (the ``db_url`` fixture: a fresh database per test, dropped
+afterwards; a server that cannot be reached skips its tests, saying why).
+"""
+
+from __future__ import annotations
+
+import json
+import multiprocessing
+import os
+import random
+import signal
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import pytest
+from servers import (
+    correction_worker,
+    databases_left,
+    fresh_database,
+    varied_want,
+)
+from sqlalchemy import func, select
+
+from homecog.errors import ContextError
+from homecog.home import Home
+from homecog.knowledge.ihdr import IHDRTree
+from homecog.knowledge.pipeline import build
+from homecog.knowledge.store import ExperienceRow, Store, StoreError, UserRow
+
+WORK = {"time": "10:00", "light": 100, "activity": "work", "blind": "off", "desk_lamp": "off", "radio": "off"}
+EVENING = {
+    "time": "21:00",
+    "light": 100,
+    "activity": "relax",
+    "blind": "on",
+    "desk_lamp": "off",
+    "radio": "off",
+}
+NIGHT = {
+    "time": "23:00",
+    "light": 10,
+    "activity": "sleep",
+    "blind": "off",
+    "desk_lamp": "off",
+    "radio": "off",
+}
+
+
+@pytest.fixture
+def built(db_url: str, studio: Home, studio_build: Path):
+    """A store of the studio home with a freshly built tree: (store, live tree)."""
+    store = Store(db_url, studio)
+    tree = build(studio, store, q_path=studio_build).tree
+    yield store, tree
+    store.close()
+
+
+def _reopen(url: str, home: Home) -> IHDRTree:
+    """The tree as another client sees it: a new Store object, loaded from the database."""
+    store = Store(url, home)
+    try:
+        return store.load_tree()
+    finally:
+        store.close()
+
+
+def _last_correction(store: Store) -> dict:
+    with store.engine.connect() as conn:
+        payload = conn.execute(
+            select(ExperienceRow.payload)
+            .where(ExperienceRow.kind == "correction")
+            .order_by(ExperienceRow.id.desc())
+            .limit(1)
+        ).scalar_one()
+    return json.loads(payload)
+
+
+def _user_corrections(store: Store) -> tuple[dict[str, int], dict[str, int]]:
+    """(users.corrections per user, correction rows in the log per user)."""
+    with store.engine.connect() as conn:
+        users = dict(conn.execute(select(UserRow.name, UserRow.corrections)).all())
+        logged = dict(
+            conn.execute(
+                select(ExperienceRow.user, func.count())
+                .where(ExperienceRow.kind == "correction")
+                .group_by(ExperienceRow.user)
+            ).all()
+        )
+    return users, logged
+
+
+def _assert_consistent(url: str, home: Home) -> IHDRTree:
+    """The database answers as its log says: loads, rebuilds to the same tree, counts agree."""
+    store = Store(url, home)
+    try:
+        loaded = store.load_tree()
+        assert store.rebuild().signature() == loaded.signature()
+        users, logged = _user_corrections(store)
+        assert users == logged
+        assert store.counts()["corrections"] == sum(logged.values())
+        return loaded
+    finally:
+        store.close()
+
+
+# -- building and loading ---------------------------------------------------------------------------
+def test_build_then_load(built: tuple[Store, IHDRTree], db_url: str, studio: Home) -> None:
+    store, tree = built
+    loaded = _reopen(db_url, studio)
+    assert loaded.signature() == tree.signature()
+    counts = store.counts()
+    n_categories = len({s.category for s in studio.services}) + 1  # + the idle category
+    assert counts["nodes"] == 1 + n_categories + len(studio.services) + 1  # root, categories, services, Idle
+    assert counts["nodes"] == tree.root.n_nodes == 14
+    assert counts["clusters"] == tree.n_clusters() > 0
+    assert counts["user_clusters"] == counts["corrections"] == counts["users"] == 0
+    assert store.experience_count() == tree.n_experiences > 0
+    for context in (WORK, EVENING, NIGHT):
+        assert loaded.predict_one(context) == tree.predict_one(context)
+    assert loaded.predict_one(WORK) == ["RaiseBlind", "LampOn", "BringTea"]
+    assert store.rebuild().signature() == tree.signature()
+
+
+def test_rebuild_after_corrections_by_two_users(built: tuple[Store, IHDRTree]) -> None:
+    store, tree = built
+    plan = [
+        ("alice", WORK, ["RaiseBlind", "LampOn", "BringTea", "RadioOn"]),  # adds
+        ("bob", WORK, ["RaiseBlind", "LampOn"]),  # rejects
+        ("alice", EVENING, ["LowerBlind", "SayGoodnight"]),  # rejects
+        ("bob", NIGHT, ["SayGoodnight"]),  # adds where nothing was needed
+        ("alice", NIGHT, ["LampOn", "RadioOn"]),  # adds two
+        ("bob", EVENING, ["LowerBlind", "RadioOn", "SayGoodnight", "BringTea"]),  # adds
+        ("alice", WORK, ["LampOn", "BringTea", "RadioOn"]),  # rejects one of her additions' kin
+        ("bob", {**WORK, "activity": "relax"}, []),  # rejects everything
+    ]
+    kinds = set()
+    for user, context, want in plan:
+        added, rejected = store.correct(tree, tree.point(context), want, user)
+        kinds |= {"add"} if added else set()
+        kinds |= {"reject"} if rejected else set()
+        assert set(tree.predict_one(context, user)) == set(want)
+    assert kinds == {"add", "reject"}
+    assert tree.n_clusters("alice") > 0
+    assert tree.n_clusters("bob") > 0
+    rebuilt = store.rebuild()
+    assert rebuilt.signature() == tree.signature()
+    assert store.load_tree().signature() == tree.signature()
+    user, context, want = plan[-1]
+    assert rebuilt.predict_one(context, user) == want == []
+    for user, context, _ in plan:
+        assert rebuilt.predict_one(context, user) == tree.predict_one(context, user)
+
+
+# -- corrections ----------------------------------------------------------------------------------------
+def test_correction_is_per_user_and_persisted(
+    built: tuple[Store, IHDRTree], db_url: str, studio: Home
+) -> None:
+    store, tree = built
+    shared = tree.predict_one(WORK)
+    assert shared == ["RaiseBlind", "LampOn", "BringTea"]
+    experiences = store.experience_count()
+
+    # alice adds the radio
+    added, rejected = store.correct(tree, tree.point(WORK), [*shared, "RadioOn"], "alice")
+    assert (added, rejected) == (["RadioOn"], [])
+    assert _last_correction(store)["added"] == ["RadioOn"]
+    assert _last_correction(store)["rejected"] == []
+    assert _last_correction(store)["want"] == [*shared, "RadioOn"]
+    assert store.experience_count() == experiences + 1
+    assert set(tree.predict_one(WORK, "alice")) == {*shared, "RadioOn"}
+    other = _reopen(db_url, studio)
+    assert set(other.predict_one(WORK, "alice")) == {*shared, "RadioOn"}
+    assert other.predict_one(WORK, "bob") == shared
+    assert other.predict_one(WORK) == shared
+
+    # alice rejects the tea
+    added, rejected = store.correct(tree, tree.point(WORK), ["RaiseBlind", "LampOn", "RadioOn"], "alice")
+    assert (added, rejected) == ([], ["BringTea"])
+    assert _last_correction(store)["added"] == []
+    assert _last_correction(store)["rejected"] == ["BringTea"]
+    assert store.experience_count() == experiences + 2
+    other = _reopen(db_url, studio)
+    assert set(other.predict_one(WORK, "alice")) == {"RaiseBlind", "LampOn", "RadioOn"}
+    assert other.predict_one(WORK, "bob") == shared
+
+    # bob's own correction does not touch alice's
+    added, rejected = store.correct(tree, tree.point(WORK), ["LampOn"], "bob")
+    assert (added, rejected) == ([], ["RaiseBlind", "BringTea"])
+    assert _last_correction(store)["rejected"] == ["RaiseBlind", "BringTea"]
+    assert store.experience_count() == experiences + 3
+    other = _reopen(db_url, studio)
+    assert other.predict_one(WORK, "bob") == ["LampOn"]
+    assert set(other.predict_one(WORK, "alice")) == {"RaiseBlind", "LampOn", "RadioOn"}
+    assert other.predict_one(WORK) == shared
+    counts = store.counts()
+    assert (counts["corrections"], counts["users"]) == (3, 2)
+    assert counts["user_clusters"] == other.n_clusters("alice") + other.n_clusters("bob") > 0
+    assert _user_corrections(store) == ({"alice": 2, "bob": 1}, {"alice": 2, "bob": 1})
+
+    # a correction that changes nothing is still an experience
+    added, rejected = store.correct(tree, tree.point(WORK), ["LampOn"], "bob")
+    assert (added, rejected) == ([], [])
+    assert store.experience_count() == experiences + 4
+
+
+def test_bad_correction_leaves_the_store_unchanged(
+    built: tuple[Store, IHDRTree], db_url: str, studio: Home
+) -> None:
+    store, tree = built
+    store.correct(tree, tree.point(WORK), ["LampOn"], "alice")
+    counts, experiences = store.counts(), store.experience_count()
+    signature = _reopen(db_url, studio).signature()
+    with pytest.raises(ContextError, match="NoSuchService"):
+        tree.correct_one(tree.point(WORK), ["LampOn", "NoSuchService"], "alice")
+    with pytest.raises(ContextError, match="NoSuchService"):
+        store.correct(tree, tree.point(WORK), ["LampOn", "NoSuchService"], "alice")
+    with pytest.raises(ContextError, match="NoSuchService"):
+        store.correct(tree, tree.point(WORK), ["NoSuchService"], "carol")  # a new user
+    with pytest.raises(StoreError, match="--user"):
+        store.correct(tree, tree.point(WORK), ["LampOn"], "")
+    assert store.counts() == counts
+    assert store.experience_count() == experiences
+    assert _reopen(db_url, studio).signature() == signature
+    store.refresh_user(tree, "alice")
+    assert tree.predict_one(WORK, "alice") == ["LampOn"]
+    assert tree.signature() == signature
+
+
+# -- the wrong database -------------------------------------------------------------------------------------
+def test_refuses_another_home(built: tuple[Store, IHDRTree], db_url: str, paper: Home) -> None:
+    with pytest.raises(StoreError) as info:
+        Store(db_url, paper)
+    message = str(info.value)
+    assert "'studio'" in message
+    assert "'paper'" in message
+    assert "\n" not in message
+
+
+@pytest.mark.parametrize(
+    "url",
+    [
+        "nosuchdb://x",
+        "not a url",
+        "postgresql+psycopg://postgres@127.0.0.1:1/x",
+        "mysql+pymysql://root@127.0.0.1:1/x",
+    ],
+)
+def test_bad_url_is_a_one_line_store_error(url: str, studio: Home) -> None:
+    start = time.monotonic()
+    with pytest.raises(StoreError) as info:
+        Store(url, studio)
+    assert time.monotonic() - start < 15
+    message = str(info.value)
+    assert message.startswith("--db ")
+    assert "\n" not in message
+    assert "Traceback" not in message
+
+
+def test_server_test_databases_are_dropped() -> None:
+    for kind in ("postgresql", "mariadb"):
+        try:
+            with fresh_database(kind) as url:
+                name = url.rsplit("/", 1)[1]
+                assert name in databases_left(kind)
+            assert name not in databases_left(kind)
+        except pytest.skip.Exception:
+            continue
+
+
+# -- concurrency ---------------------------------------------------------------------------------------------
+PROCESSES = 8
+N = 15
+USERS = ["alice", "alice", "alice", "bob", "bob", "carol", "dave", "erin"]
+
+
+@pytest.mark.slow
+def test_concurrent_corrections_lose_nothing(
+    built: tuple[Store, IHDRTree], db_url: str, studio: Home
+) -> None:
+    store, _ = built
+    before = store.experience_count()
+    ctx = multiprocessing.get_context("spawn")
+    with ctx.Pool(PROCESSES) as pool:
+        results = pool.starmap_async(
+            correction_worker, [(db_url, user, N, 100 + i) for i, user in enumerate(USERS)], chunksize=1
+        ).get(timeout=150)
+    assert [len(r) for r in results] == [N] * PROCESSES
+    changed = sum(1 for r in results for added, rejected in r if added or rejected)
+    assert changed >= PROCESSES * N // 2  # the corrections really changed the layers
+
+    assert store.counts()["corrections"] == PROCESSES * N
+    assert store.experience_count() == before + PROCESSES * N
+    users, logged = _user_corrections(store)
+    expected = {u: USERS.count(u) * N for u in USERS}
+    assert users == expected
+    assert logged == expected
+    loaded = _assert_consistent(db_url, studio)
+    assert all(loaded.n_clusters(u) > 0 for u in expected)
+
+
+# -- a client killed in the middle ---------------------------------------------------------------------
+@pytest.mark.slow
+def test_sigkill_leaves_a_consistent_store(built: tuple[Store, IHDRTree], db_url: str, studio: Home) -> None:
+    store, _ = built
+    code = (
+        "import sys; sys.path.insert(0, sys.argv[1]); import servers; "
+        "servers.correct_forever(sys.argv[2], 'alice', 7)"
+    )
+    proc = subprocess.Popen(
+        [sys.executable, "-c", code, str(Path(__file__).parent), db_url],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env={**os.environ, "PYTHONUNBUFFERED": "1"},
+    )
+    watchdog = threading.Timer(120, proc.kill)  # a client that hangs must not hang the test
+    watchdog.start()
+    try:
+        committed = 0
+        deadline = time.monotonic() + 60
+        while committed < 5:
+            line = proc.stdout.readline()  # type: ignore[union-attr]
+            if not line:
+                pytest.fail(f"the client died: {proc.stderr.read()}")  # type: ignore[union-attr]
+            assert time.monotonic() < deadline, "the client commits too slowly"
+            committed = int(line.split()[1])
+        time.sleep(random.Random(1).uniform(0, 0.05))  # somewhere inside the next correction
+        proc.send_signal(signal.SIGKILL)
+        proc.wait(timeout=30)
+    finally:
+        watchdog.cancel()
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+        proc.stdout.close()  # type: ignore[union-attr]
+        proc.stderr.close()  # type: ignore[union-attr]
+    assert proc.returncode == -signal.SIGKILL
+
+    loaded = _assert_consistent(db_url, studio)
+    users, _ = _user_corrections(store)
+    assert users["alice"] >= committed >= 5
+    assert store.counts()["corrections"] == users["alice"]
+
+    # the store still takes corrections, from a new client
+    after = Store(db_url, studio)
+    try:
+        tree = after.load_tree()
+        assert tree.signature() == loaded.signature()
+        want = varied_want(random.Random(3), tree.predict_one(WORK, "alice"), list(studio.service_names))
+        after.correct(tree, tree.point(WORK), want, "alice")
+        assert set(tree.predict_one(WORK, "alice")) == set(want)
+        assert _user_corrections(after)[0]["alice"] == users["alice"] + 1
+    finally:
+        after.close()
+    assert set(_assert_consistent(db_url, studio).predict_one(WORK, "alice")) == set(want)
