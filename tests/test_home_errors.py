@@ -439,7 +439,7 @@ def test_unknown_home_name() -> None:
     with pytest.raises(HomeFileError) as caught:
         load_home("nope")
     assert str(caught.value) == (
-        "unknown home 'nope'; built-in homes: paper, or give the path of a YAML file"
+        "unknown home 'nope'; built-in homes: paper, paper_ann, or give the path of a YAML file"
     )
 
 

@@ -9,6 +9,8 @@ from __future__ import annotations
 import os
 import sys
 import tempfile
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -308,6 +310,19 @@ def build(
     stdout.print(f"database: {data['db']}")
 
 
+@contextmanager
+def _knowledge(h: Home, db: str | None) -> Iterator[tuple[Any, Any]]:
+    """The home's store and its tree (built first if the database has none), closed after."""
+    from homecog.knowledge.pipeline import open_tree
+    from homecog.knowledge.store import Store
+
+    store = Store(db, h)
+    try:
+        yield store, open_tree(h, store, progress=_status)
+    finally:
+        store.close()
+
+
 @app.command()
 def cognize(
     context: ContextOption,
@@ -317,18 +332,12 @@ def cognize(
     json: JsonOption = False,
 ) -> None:
     """The services the user needs in a context, in priority order, and why."""
-    from homecog.knowledge.pipeline import open_tree
     from homecog.knowledge.space import Space, parse_context
-    from homecog.knowledge.store import Store
 
     h = load_home(home)
     point = parse_context(context, Space(h))
-    store = Store(db, h)
-    try:
-        tree = open_tree(h, store, progress=_status)
-    finally:
-        store.close()
-    result = tree.explain_one(point, user=user)
+    with _knowledge(h, db) as (_, tree):
+        result = tree.explain_one(point, user=user)
     if json:
         emit_json(result.as_dict())
         return
@@ -356,20 +365,14 @@ def correct(
     json: JsonOption = False,
 ) -> None:
     """Tell the robot which services the user wants in a context; it learns at once."""
-    from homecog.knowledge.pipeline import open_tree
     from homecog.knowledge.space import Space, parse_context, parse_services
-    from homecog.knowledge.store import Store
 
     h = load_home(home)
     point = parse_context(context, Space(h))
     wanted = parse_services(want, h)
-    store = Store(db, h)
-    try:
-        tree = open_tree(h, store, progress=_status)
+    with _knowledge(h, db) as (store, tree):
         added, rejected = store.correct(tree, point, wanted, user)
         experiences = store.experience_count()
-    finally:
-        store.close()
     if json:
         emit_json({"added": added, "rejected": rejected, "experiences": experiences, "user": user})
         return
@@ -377,6 +380,83 @@ def correct(
         f"learned for {user}: added {', '.join(added) or 'nothing'}; "
         f"rejected {', '.join(rejected) or 'nothing'} ({experiences:,} experiences)"
     )
+
+
+# -- homecog eval -------------------------------------------------------------------------------
+@app.command("eval")
+def eval_command(
+    home: HomeOption = "paper",
+    truth: Annotated[
+        str | None, typer.Option(help="The home whose wishes are the ground truth (default: the same home).")
+    ] = None,
+    scenarios: Annotated[
+        str, typer.Option(help="A number of random scenarios, or a scenario CSV file.")
+    ] = "2000",
+    corrections: Annotated[
+        int, typer.Option(help="Corrections by a simulated user (the truth home), with a learning curve.")
+    ] = 0,
+    seed: Annotated[int, typer.Option(help="Seed of the scenarios and samples.")] = 0,
+    methods: Annotated[str, typer.Option(help="Methods, comma-separated.")] = "multi,paper,kmeans,hoeffding",
+    report: Annotated[
+        Path | None, typer.Option(help="Write a Markdown report with charts into this folder.")
+    ] = None,
+    db: DbOption = None,
+    json: JsonOption = False,
+) -> None:
+    """Precision, recall and F1 of every method on scenarios; with --corrections, how the robot develops."""
+    from homecog.evaluation.evaluate import run as run_eval
+    from homecog.evaluation.methods import METHODS
+
+    h = load_home(home)
+    t = load_home(truth) if truth else h
+    names = [m.strip() for m in methods.split(",") if m.strip()]
+    bad = [m for m in names if m not in METHODS]
+    if bad or not names:
+        raise UsageProblemError(
+            f"--methods: unknown method {bad[0] if bad else '(none)'!r}; "
+            f"expected some of {', '.join(METHODS)}"
+        )
+    if corrections < 0:
+        raise UsageProblemError(f"--corrections must be 0 or more, got {corrections}")
+    if seed < 0:
+        raise UsageProblemError(f"--seed must be 0 or more, got {seed}")
+    if scenarios.strip().isdigit():
+        cases: int | Path = int(scenarios)
+        if cases < 1:
+            raise UsageProblemError(f"--scenarios must be at least 1, got {cases}")
+    else:
+        cases = Path(scenarios)
+        if not cases.is_file():
+            raise UsageProblemError(f"--scenarios {scenarios}: no such file (give a number or a CSV file)")
+    if report is not None:
+        _check_writable(report / "report.md")
+    result = run_eval(
+        h, t, scenarios=cases, seed=seed, methods=names, corrections=corrections, db=db, progress=_status
+    )
+    data = result.as_dict()
+    if report is not None:
+        from homecog.evaluation.report import write_report
+
+        data["report"] = str(write_report(data, report))
+    if json:
+        emit_json(data)
+        return
+    table = Table(title=f"{h.name}: {result.scenarios:,} scenarios, truth {t.name}", title_justify="left")
+    for col in ("method", "precision", "recall", "F1", "exact", "seconds"):
+        table.add_column(col, justify="right" if col != "method" else "left")
+    for name, m in result.methods.items():
+        table.add_row(
+            name, *(f"{m.micro[k]:.4f}" for k in ("precision", "recall", "f1", "exact")), f"{m.seconds:.2f}"
+        )
+    table.add_row("paper's Sarsa+IHDR", "0.9821", "0.9026", "0.9407", "", "")
+    table.add_row("paper's K-means", "0.8866", "0.8457", "0.8657", "", "")
+    stdout.print(table)
+    if result.curve:
+        stdout.print(
+            "corrections → F1: " + ", ".join(f"{c['corrections']}: {c['f1']:.3f}" for c in result.curve)
+        )
+    if report is not None:
+        stdout.print(f"report: {data['report']}")
 
 
 # -- entry point -------------------------------------------------------------------------------

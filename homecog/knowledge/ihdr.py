@@ -910,7 +910,10 @@ class IHDRTree:
         return shared, users
 
     def __getstate__(self) -> dict[str, Any]:
-        return copy.copy(self.__dict__)
+        state = copy.copy(self.__dict__)
+        state["_dense"] = None  # caches, rebuilt on demand
+        state["_before"] = None
+        return state
 
 
 def _covers(box: Mapping[int, Condition], codes: Sequence[int]) -> bool:

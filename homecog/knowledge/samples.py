@@ -14,14 +14,32 @@ dimension, until the sample's conditions are sufficient: every start state that 
 them has the policy perform the service. Conditions of a sample are therefore never
 wrong on the training space, which is what lets the ``multi`` tree reach its precision.
 
->>> from homecog.home import load_home
+>>> from homecog.home import load_home_text
 >>> from homecog.environment.core import Core
 >>> from homecog.learning.sarsa import SarsaConfig, train
->>> home = load_home("paper")
->>> q = train(home, SarsaConfig(episodes=2_000_000, seed=0)).q_table.q
+>>> home = load_home_text('''
+... name: hall
+... context:
+...   time: {kind: clock, bins: {day: [7, 20], night: [20, 7]}}
+...   who: {kind: categorical, values: [nobody, someone]}
+... devices: {light: {}, door: {}}
+... services:
+...   LightOn: {category: on, set: {light: on}}
+...   LightOff: {category: off, set: {light: off}}
+...   Lock: {category: off, set: {door: off}}
+... comfort:
+...   light: [{when: {time: [night], who: [someone]}, want: on}, {want: off}]
+...   door: [{when: {who: [nobody]}, want: off}]
+... ''')
+>>> q = train(home, SarsaConfig(episodes=5_000, seed=0)).q_table.q
 >>> samples = make_samples(Core(home), q, seed=0)
->>> len(samples)
-663552
+>>> len(samples)                       # 4 contexts × 4 device states
+16
+>>> s = samples[2 * 4 + 0b11]          # night, nobody home; light on, door open
+>>> [home.services[a].name for a in s.services]
+['Lock', 'LightOff']
+>>> [[samples.space.names[j] for j in range(4) if m >> j & 1] for m in s.relevant]
+[['who', 'door'], ['who', 'light']]
 """
 
 from __future__ import annotations

@@ -1,0 +1,321 @@
+"""``homecog eval``: every method on the same scenarios, and the robot's development with use.
+
+Quality (SPEC §9) is micro precision Σ|p∩t|/Σ|p|, recall Σ|p∩t|/Σ|t|, their F1 and the
+exact-match rate, plus the same averaged over scenarios and a per-service table.
+
+Development over time: a simulated user whose wishes are a *truth* home corrects the robot
+after each of K scenarios, through the same path as ``homecog correct`` and the HMI (the
+store's transaction); precision, recall and F1 on held-out scenarios are measured before any
+correction and after every block of them.
+"""
+
+from __future__ import annotations
+
+import csv
+import tempfile
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from homecog.environment.core import Core
+from homecog.errors import ContextError, HomecogError
+from homecog.evaluation.methods import METHODS, HoeffdingMethod, KMeansMethod, Method, TreeMethod
+from homecog.evaluation.scenarios import Scenario, random_scenarios, scores
+from homecog.home.loader import is_compatible
+from homecog.home.model import Home, parse_state
+from homecog.knowledge.ihdr import IHDRTree
+from homecog.knowledge.pipeline import ensure_q_table
+from homecog.knowledge.samples import SampleSet, make_samples
+from homecog.knowledge.space import Space, parse_services
+
+Progress = Callable[[str], None]
+
+
+class EvaluationError(HomecogError):
+    """Bad evaluation input: an incompatible truth home, a broken scenario file."""
+
+
+def check_truth(home: Home, truth: Home) -> None:
+    """Refuse a truth home that is not compatible (SPEC §2), naming what differs."""
+    problems = is_compatible(truth, home)
+    if problems:
+        raise EvaluationError(
+            f"--truth {truth.source}: not compatible with home '{home.name}': {'; '.join(problems)}"
+        )
+
+
+def load_scenarios(path: Path, home: Home, truth: Home, *, events: bool = False) -> list[Scenario]:
+    """Scenarios (or events) from a CSV file (SPEC §9); errors name the file, line and column."""
+    space = Space(home)
+    needed = list(space.names)
+    try:
+        handle = path.open(newline="", encoding="utf-8")
+    except OSError as e:
+        raise EvaluationError(f"{path}: cannot read: {e.strerror}") from None
+    out = []
+    with handle:
+        reader = csv.DictReader(handle)
+        header = reader.fieldnames or []
+        if not header:
+            raise EvaluationError(f"{path}: empty file; expected a header with {', '.join(needed)}")
+        missing = [c for c in ([*needed, "timestamp"] if events else needed) if c not in header]
+        if missing:
+            raise EvaluationError(f"{path}: line 1: missing column(s) {', '.join(missing)}")
+        if events and header[0] != "timestamp":
+            raise EvaluationError(f"{path}: line 1: the first column must be timestamp")
+        unknown = [c for c in header if c not in needed and c not in ("services", "timestamp")]
+        if unknown:
+            raise EvaluationError(f"{path}: line 1: unknown column(s) {', '.join(unknown)}")
+        for line, row in enumerate(reader, start=2):
+            if None in row or any(row.get(c) is None for c in needed):
+                raise EvaluationError(f"{path}: line {line}: expected {len(header)} fields")
+            for j, name in enumerate(needed):
+                value = row[name].strip()
+                try:
+                    if j < space.n_features:
+                        home.features[j].discretize(value)
+                    else:
+                        parse_state(value, name)
+                except ContextError as e:
+                    raise EvaluationError(f"{path}: line {line}, column {name}: {e}") from None
+            if events:
+                _check_timestamp(path, line, row["timestamp"])
+            context = {name: row[name].strip() for name in needed}
+            point = space.point(context)
+            if row.get("services") is not None:
+                try:
+                    wanted = parse_services(row["services"].replace(";", ","), truth)
+                except ContextError as e:
+                    raise EvaluationError(f"{path}: line {line}, column services: {e}") from None
+                truth_set, alternatives = frozenset(wanted), ()
+            else:
+                n_f = space.n_features
+                sets = truth.optimal_service_sets(
+                    point.codes[:n_f], tuple(bool(c) for c in point.codes[n_f:])
+                )
+                truth_set = sets[0] if sets else frozenset()
+                alternatives = tuple(sets) if len(sets) > 1 else ()
+            out.append(Scenario(context=context, point=point, truth=truth_set, alternatives=alternatives))
+    if not out:
+        raise EvaluationError(f"{path}: no rows after the header")
+    return out
+
+
+def _check_timestamp(path: Path, line: int, value: str) -> None:
+    from datetime import datetime
+
+    try:
+        datetime.fromisoformat(value.strip())
+    except ValueError:
+        raise EvaluationError(
+            f"{path}: line {line}, column timestamp: {value!r} is not an ISO 8601 time"
+        ) from None
+
+
+@dataclass
+class MethodResult:
+    """The figures of one method on the scenarios."""
+
+    micro: dict[str, float]
+    averaged: dict[str, float]
+    per_service: dict[str, dict[str, float]]
+    seconds: float
+    predictions: list[list[str]] = field(default_factory=list, repr=False)
+
+    def as_dict(self) -> dict[str, Any]:
+        return {
+            **{k: round(v, 6) for k, v in self.micro.items()},
+            "averaged": {k: round(v, 6) for k, v in self.averaged.items()},
+            "per_service": self.per_service,
+            "seconds": round(self.seconds, 3),
+        }
+
+
+def evaluate(method: Method, scenarios: Sequence[Scenario], services: Sequence[str]) -> MethodResult:
+    """Micro, scenario-averaged and per-service figures of a method."""
+    start = time.perf_counter()
+    predicted = [method.predict_one(s.point) for s in scenarios]
+    seconds = time.perf_counter() - start
+    truths = [s.truth_for(p) for s, p in zip(scenarios, predicted, strict=True)]
+    micro = scores(predicted, [sorted(t) for t in truths])
+    per_p, per_r = [], []
+    for p, t in zip(predicted, truths, strict=True):
+        hit = len(set(p) & t)
+        per_p.append(hit / len(set(p)) if p else (1.0 if not t else 0.0))
+        per_r.append(hit / len(t) if t else (1.0 if not p else 0.0))
+    avg_p, avg_r = sum(per_p) / len(per_p), sum(per_r) / len(per_r)
+    averaged = {
+        "precision": avg_p,
+        "recall": avg_r,
+        "f1": 2 * avg_p * avg_r / (avg_p + avg_r) if avg_p + avg_r else 0.0,
+    }
+    per_service = {}
+    for name in services:
+        tp = sum(1 for p, t in zip(predicted, truths, strict=True) if name in p and name in t)
+        fp = sum(1 for p, t in zip(predicted, truths, strict=True) if name in p and name not in t)
+        fn = sum(1 for p, t in zip(predicted, truths, strict=True) if name not in p and name in t)
+        prec = tp / (tp + fp) if tp + fp else 1.0
+        rec = tp / (tp + fn) if tp + fn else 1.0
+        per_service[name] = {
+            "support": tp + fn,
+            "precision": round(prec, 6),
+            "recall": round(rec, 6),
+            "f1": round(2 * prec * rec / (prec + rec) if prec + rec else 0.0, 6),
+        }
+    return MethodResult(
+        micro=micro, averaged=averaged, per_service=per_service, seconds=seconds, predictions=predicted
+    )
+
+
+def build_methods(
+    home: Home,
+    samples: SampleSet,
+    names: Sequence[str],
+    *,
+    seed: int = 0,
+    kmeans_k: int = 64,
+    progress: Progress | None = None,
+) -> dict[str, Method]:
+    """Learn every method named from the same samples."""
+    out: dict[str, Method] = {}
+    for name in names:
+        if progress:
+            progress(f"learning {name} ...")
+        if name in ("multi", "paper"):
+            tree = IHDRTree(home, mode=name)
+            tree.learn_many(samples)
+            out[name] = TreeMethod(tree)
+        elif name == "kmeans":
+            out[name] = KMeansMethod(samples, k=kmeans_k, seed=seed)
+        elif name == "hoeffding":
+            out[name] = HoeffdingMethod(samples, seed=seed)
+        else:
+            raise EvaluationError(f"unknown method {name!r}; expected some of {', '.join(METHODS)}")
+    return out
+
+
+def correction_curve(
+    home: Home,
+    truth: Home,
+    tree: IHDRTree,
+    samples: SampleSet,
+    scenarios: Sequence[Scenario],
+    k: int,
+    *,
+    seed: int = 0,
+    db: str | None = None,
+    block: int | None = None,
+    user: str = "simulated",
+    progress: Progress | None = None,
+) -> list[dict[str, float]]:
+    """Precision, recall and F1 of ``multi`` for a user who corrects it after each of ``k``
+    fresh scenarios (never the measured ones), measured at 0 and after every block."""
+    from homecog.knowledge.store import Store
+
+    block = block or max(1, k // 10)
+    stream = random_scenarios(home, k, seed=seed + 7919, truth=truth)
+    with tempfile.TemporaryDirectory() as tmp:
+        store = Store(db or f"sqlite:///{tmp}/corrections.sqlite", home)
+        try:
+            store.save_build(tree, samples)
+            live = store.load_tree()
+            method = TreeMethod(live, user=user)
+            names = home.service_names
+
+            def measure(done: int) -> dict[str, float]:
+                r = evaluate(method, scenarios, names).micro
+                return {
+                    "corrections": done,
+                    "precision": round(r["precision"], 6),
+                    "recall": round(r["recall"], 6),
+                    "f1": round(r["f1"], 6),
+                }
+
+            curve = [measure(0)]
+            for i, s in enumerate(stream, start=1):
+                store.correct(live, s.point, sorted(s.truth_for(live.predict_one(s.point, user))), user)
+                if i % block == 0 or i == k:
+                    curve.append(measure(i))
+                    if progress:
+                        progress(f"{i} corrections: F1 {curve[-1]['f1']:.4f}")
+        finally:
+            if db:
+                store.drop_all()
+            store.close()
+    return curve
+
+
+@dataclass
+class EvalReport:
+    scenarios: int
+    methods: dict[str, MethodResult]
+    curve: list[dict[str, float]] | None
+    seconds: float
+    home: str
+    truth: str
+
+    def as_dict(self) -> dict[str, Any]:
+        out: dict[str, Any] = {
+            "scenarios": self.scenarios,
+            "home": self.home,
+            "truth": self.truth,
+            "methods": {k: v.as_dict() for k, v in self.methods.items()},
+            "seconds": round(self.seconds, 3),
+        }
+        if self.curve is not None:
+            out["curve"] = self.curve
+        return out
+
+
+def run(
+    home: Home,
+    truth: Home,
+    *,
+    scenarios: int | Path = 2000,
+    seed: int = 0,
+    methods: Sequence[str] = METHODS,
+    corrections: int = 0,
+    kmeans_k: int = 64,
+    db: str | None = None,
+    progress: Progress | None = None,
+) -> EvalReport:
+    """The whole evaluation (SPEC §9, §11)."""
+    start = time.perf_counter()
+    check_truth(home, truth)
+    if isinstance(scenarios, Path):
+        cases = load_scenarios(scenarios, home, truth)
+    else:
+        if scenarios < 1:
+            raise EvaluationError(f"--scenarios must be at least 1, got {scenarios}")
+        cases = random_scenarios(home, scenarios, seed=seed, truth=truth)
+    core = Core(home)
+    q = ensure_q_table(home, core=core, progress=progress)
+    if progress:
+        progress("making samples ...")
+    samples = make_samples(core, q.q, seed=seed)
+    learned = build_methods(home, samples, methods, seed=seed, kmeans_k=kmeans_k, progress=progress)
+    results = {}
+    for name, method in learned.items():
+        if progress:
+            progress(f"evaluating {name} on {len(cases):,} scenarios ...")
+        results[name] = evaluate(method, cases, home.service_names)
+    curve = None
+    if corrections:
+        multi = learned.get("multi")
+        tree = multi.tree if isinstance(multi, TreeMethod) else None
+        if tree is None:
+            tree = IHDRTree(home)
+            tree.learn_many(samples)
+        curve = correction_curve(
+            home, truth, tree, samples, cases, corrections, seed=seed, db=db, progress=progress
+        )
+    return EvalReport(
+        scenarios=len(cases),
+        methods=results,
+        curve=curve,
+        seconds=time.perf_counter() - start,
+        home=home.name,
+        truth=truth.name,
+    )

@@ -1,0 +1,152 @@
+"""The methods ``homecog eval`` compares, all learned from the same samples (SPEC §9).
+
+- ``multi`` and ``paper``: the IHDR tree in its two modes.
+- ``kmeans``: the paper's Table 9 baseline — scikit-learn K-means over the training samples
+  (normalized as Table 7), each cluster predicting the services present in at least half of
+  its members; a context gets the services of its nearest centroid.
+- ``hoeffding``: river's Hoeffding tree, one binary classifier per service, learned online
+  from a stream of samples (features as the tree sees them: categories and bins as nominal
+  values, readings as numbers, devices as on/off).
+
+Every method answers ``predict_one(point)`` with the services in priority order.
+"""
+
+from __future__ import annotations
+
+from typing import Any, Protocol
+
+import numpy as np
+
+from homecog.home.model import Home
+from homecog.knowledge.ihdr import IHDRTree
+from homecog.knowledge.samples import SampleSet
+from homecog.knowledge.space import Point, Space, finite_span
+
+METHODS = ("multi", "paper", "kmeans", "hoeffding")
+
+
+class Method(Protocol):
+    name: str
+
+    def predict_one(self, point: Point) -> list[str]: ...
+
+
+class TreeMethod:
+    """The IHDR tree (``multi`` or ``paper``) as an evaluation method."""
+
+    def __init__(self, tree: IHDRTree, user: str | None = None) -> None:
+        self.tree = tree
+        self.name = tree.mode
+        self.user = user
+
+    def predict_one(self, point: Point) -> list[str]:
+        return self.tree.predict_one(point, user=self.user)
+
+
+def _priorities(samples: SampleSet) -> np.ndarray:
+    """Mean position of each service in the learned sequences (for ordering answers)."""
+    pos = samples.positions.astype(np.float64)
+    done = pos >= 0
+    return np.where(
+        done.any(axis=0), np.where(done, pos, 0).sum(axis=0) / np.maximum(done.sum(axis=0), 1), 99
+    )
+
+
+class Normalizer:
+    """A point as the paper's Table 7 row: normalized codes, readings scaled to [0, 1]."""
+
+    def __init__(self, space: Space) -> None:
+        self.space = space
+        self.spans: dict[int, tuple[float, float]] = {}
+        for j, dim in enumerate(space.dims):
+            if dim.numeric:
+                bounds = finite_span(space.home.features[j].bins)  # type: ignore[arg-type]
+                self.spans[j] = (min(bounds), max(bounds))
+
+    def rows(self, codes: np.ndarray, readings: np.ndarray) -> np.ndarray:
+        out = np.empty(codes.shape, dtype=np.float64)
+        for j, dim in enumerate(self.space.dims):
+            if j in self.spans and not np.isnan(readings[:, j]).any():
+                low, high = self.spans[j]
+                out[:, j] = np.clip((readings[:, j] - low) / (high - low), 0, 1)
+            else:
+                out[:, j] = codes[:, j] / max(1, len(dim.values) - 1)
+        return out
+
+    def row(self, point: Point) -> np.ndarray:
+        readings = np.array([np.nan if r is None else r for r in point.readings], dtype=np.float64)
+        return self.rows(np.array([point.codes]), readings[None, :])[0]
+
+
+class KMeansMethod:
+    """K-means over the training samples; a cluster predicts services in ≥ half of its members."""
+
+    name = "kmeans"
+
+    def __init__(self, samples: SampleSet, *, k: int = 64, max_samples: int = 60_000, seed: int = 0) -> None:
+        from sklearn.cluster import KMeans
+
+        rng = np.random.default_rng(seed)
+        pick = rng.permutation(len(samples))[:max_samples]
+        self.home: Home = samples.space.home
+        self.norm = Normalizer(samples.space)
+        x = self.norm.rows(samples.codes[pick], samples.readings[pick])
+        self.model = KMeans(n_clusters=min(k, len(pick)), n_init=3, random_state=seed).fit(x)
+        performed = samples.positions[pick] >= 0
+        labels = self.model.labels_
+        self.services = [
+            np.flatnonzero(performed[labels == c].mean(axis=0) >= 0.5)
+            if (labels == c).any()
+            else np.array([], int)
+            for c in range(self.model.n_clusters)
+        ]
+        self.priority = _priorities(samples)
+
+    def predict_one(self, point: Point) -> list[str]:
+        c = int(self.model.predict(self.norm.row(point)[None, :])[0])
+        chosen = sorted(self.services[c].tolist(), key=lambda a: (self.priority[a], a))
+        return [self.home.services[a].name for a in chosen]
+
+
+class HoeffdingMethod:
+    """river's Hoeffding tree, one binary classifier per service, learned online from samples."""
+
+    name = "hoeffding"
+
+    def __init__(self, samples: SampleSet, *, max_samples: int = 20_000, seed: int = 0) -> None:
+        from river import tree as river_tree
+
+        self.home = samples.space.home
+        self.space = samples.space
+        rng = np.random.default_rng(seed)
+        # a stream of max_samples instances: every sample once in a random order, and again
+        # while the home has fewer (a Hoeffding tree splits only after enough instances)
+        passes = -(-max_samples // len(samples))
+        pick = np.concatenate([rng.permutation(len(samples)) for _ in range(passes)])[:max_samples]
+        performed = samples.positions[pick] >= 0
+        nominal = [d.name for d in self.space.dims if not d.numeric]
+        self.models = [
+            river_tree.HoeffdingTreeClassifier(nominal_attributes=nominal, grace_period=100)
+            for _ in self.home.services
+        ]
+        for row, i in enumerate(pick):
+            x = self._features(samples.codes[i], samples.readings[i])
+            for a, model in enumerate(self.models):
+                model.learn_one(x, bool(performed[row, a]))
+        self.priority = _priorities(samples)
+
+    def _features(self, codes: Any, readings: Any) -> dict[str, Any]:
+        x: dict[str, Any] = {}
+        for j, dim in enumerate(self.space.dims):
+            r = readings[j]
+            if dim.numeric and r is not None and not (isinstance(r, float) and np.isnan(r)):
+                x[dim.name] = float(r)
+            else:
+                x[dim.name] = dim.values[int(codes[j])]
+        return x
+
+    def predict_one(self, point: Point) -> list[str]:
+        x = self._features(point.codes, point.readings)
+        chosen = [a for a, model in enumerate(self.models) if model.predict_one(x)]
+        chosen.sort(key=lambda a: (self.priority[a], a))
+        return [self.home.services[a].name for a in chosen]

@@ -1,0 +1,127 @@
+"""The evaluation report: a Markdown file with charts (methods beside the paper's Table 9, a
+per-service heat map, the learning curve under corrections)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+#: The paper's Table 9 (%): precision, recall, F.
+PAPER_TABLE9 = {"Kmeans (paper)": (88.66, 84.57, 86.57), "Sarsa+IHDR (paper)": (98.21, 90.26, 94.07)}
+
+
+def _plt() -> Any:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def methods_chart(report: dict[str, Any], path: Path) -> Path:
+    """Grouped bars of precision, recall and F1 per method, beside the paper's Table 9."""
+    plt = _plt()
+    rows = {
+        name: (m["precision"] * 100, m["recall"] * 100, m["f1"] * 100)
+        for name, m in report["methods"].items()
+    }
+    rows |= PAPER_TABLE9
+    fig, ax = plt.subplots(figsize=(9, 4.2))
+    width = 0.26
+    for i, (label, color) in enumerate([("precision", "#4C72B0"), ("recall", "#55A868"), ("F1", "#C44E52")]):
+        xs = [k + (i - 1) * width for k in range(len(rows))]
+        bars = ax.bar(xs, [v[i] for v in rows.values()], width, label=label, color=color)
+        ax.bar_label(bars, fmt="%.1f", fontsize=7, padding=1)
+    ax.set_xticks(range(len(rows)), list(rows), rotation=15)
+    ax.set_ylim(min(50, min(min(v) for v in rows.values()) - 5), 112)
+    ax.set_ylabel("%")
+    ax.set_title(f"{report['home']}: {report['scenarios']:,} scenarios, truth {report['truth']}")
+    ax.legend(loc="upper center", ncol=3, fontsize=8, frameon=False)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def heatmap(report: dict[str, Any], path: Path) -> Path:
+    """F1 per service (rows) and method (columns)."""
+    plt = _plt()
+    methods = list(report["methods"])
+    services = list(next(iter(report["methods"].values()))["per_service"])
+    values = [[report["methods"][m]["per_service"][s]["f1"] for m in methods] for s in services]
+    fig, ax = plt.subplots(figsize=(1.6 + 1.1 * len(methods), 0.32 * len(services) + 1.2))
+    im = ax.imshow(values, cmap="RdYlGn", vmin=0, vmax=1, aspect="auto")
+    ax.set_xticks(range(len(methods)), methods)
+    ax.set_yticks(range(len(services)), services, fontsize=8)
+    for i, row in enumerate(values):
+        for j, v in enumerate(row):
+            ax.text(j, i, f"{v:.2f}", ha="center", va="center", fontsize=7)
+    fig.colorbar(im, ax=ax, label="F1")
+    ax.set_title("F1 per service")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def curve_chart(curve: list[dict[str, float]], path: Path) -> Path:
+    plt = _plt()
+    xs = [c["corrections"] for c in curve]
+    fig, ax = plt.subplots(figsize=(7, 3.6))
+    for key, color in (("precision", "#4C72B0"), ("recall", "#55A868"), ("f1", "#C44E52")):
+        ax.plot(xs, [c[key] * 100 for c in curve], marker="o", markersize=3, label=key, color=color)
+    ax.set_xlabel("corrections by the user")
+    ax.set_ylabel("% on held-out scenarios")
+    ax.set_title("The robot's development with use")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def write_report(report: dict[str, Any], folder: Path) -> Path:
+    """``folder/report.md`` with its PNG charts; returns the Markdown path."""
+    folder.mkdir(parents=True, exist_ok=True)
+    methods_chart(report, folder / "methods.png")
+    heatmap(report, folder / "per_service.png")
+    lines = [
+        f"# Evaluation of `{report['home']}`",
+        "",
+        f"{report['scenarios']:,} scenarios; ground truth from the home `{report['truth']}`. "
+        "Micro precision Σ|p∩t|/Σ|p|, recall Σ|p∩t|/Σ|t|, F1, and the exact-match rate; "
+        "then the same averaged over scenarios.",
+        "",
+        "| method | precision | recall | F1 | exact | averaged P | averaged R | seconds |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    for name, m in report["methods"].items():
+        a = m["averaged"]
+        lines.append(
+            f"| {name} | {m['precision']:.4f} | {m['recall']:.4f} | {m['f1']:.4f} | {m['exact']:.4f} | "
+            f"{a['precision']:.4f} | {a['recall']:.4f} | {m['seconds']:.2f} |"
+        )
+    for name, (p, r, f) in PAPER_TABLE9.items():
+        lines.append(f"| {name}, Table 9 | {p / 100:.4f} | {r / 100:.4f} | {f / 100:.4f} | | | | |")
+    lines += ["", "![methods](methods.png)", "", "## Per service", "", "![per service](per_service.png)", ""]
+    if "curve" in report:
+        curve_chart(report["curve"], folder / "curve.png")
+        lines += [
+            "## Development with use",
+            "",
+            "A simulated user whose wishes are the truth home corrects the robot after each fresh "
+            "scenario; figures are on the held-out scenarios above.",
+            "",
+            "| corrections | precision | recall | F1 |",
+            "|---|---|---|---|",
+        ]
+        lines += [
+            f"| {c['corrections']} | {c['precision']:.4f} | {c['recall']:.4f} | {c['f1']:.4f} |"
+            for c in report["curve"]
+        ]
+        lines += ["", "![curve](curve.png)", ""]
+    path = folder / "report.md"
+    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    return path
