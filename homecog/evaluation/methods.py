@@ -83,7 +83,7 @@ class KMeansMethod:
 
     name = "kmeans"
 
-    def __init__(self, samples: SampleSet, *, k: int = 64, max_samples: int = 60_000, seed: int = 0) -> None:
+    def __init__(self, samples: SampleSet, *, k: int = 64, max_samples: int = 30_000, seed: int = 0) -> None:
         from sklearn.cluster import KMeans
 
         rng = np.random.default_rng(seed)
@@ -113,7 +113,7 @@ class HoeffdingMethod:
 
     name = "hoeffding"
 
-    def __init__(self, samples: SampleSet, *, max_samples: int = 20_000, seed: int = 0) -> None:
+    def __init__(self, samples: SampleSet, *, max_samples: int = 8_000, seed: int = 0) -> None:
         from river import tree as river_tree
 
         self.home = samples.space.home

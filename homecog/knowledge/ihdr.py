@@ -225,12 +225,21 @@ class _BoxIndex:
 
     def __init__(self) -> None:
         self.by_mask: dict[int, tuple[Any, dict[tuple[int, ...], Cluster]]] = {}
+        # (mask, j, the box's values on its other dimensions) -> boxes: merge partners at a glance
+        self.partners: dict[tuple[Any, ...], list[Cluster]] = {}
+
+    @staticmethod
+    def _partner_keys(cluster: Cluster) -> list[tuple[Any, ...]]:
+        dims = sorted(cluster.conditions)
+        return [(cluster.mask, j, tuple(cluster.conditions[d] for d in dims if d != j)) for j in dims]
 
     def add(self, cluster: Cluster) -> None:
         dims = tuple(sorted(cluster.conditions))
         _, table = self.by_mask.setdefault(cluster.mask, (_getter(dims), {}))
         for key in itertools.product(*(sorted(cluster.conditions[j]) for j in dims)):  # type: ignore[arg-type]
             table[key] = cluster
+        for key in self._partner_keys(cluster):
+            self.partners.setdefault(key, []).append(cluster)
 
     def remove(self, cluster: Cluster) -> None:
         dims = tuple(sorted(cluster.conditions))
@@ -238,6 +247,19 @@ class _BoxIndex:
         for key in itertools.product(*(sorted(cluster.conditions[j]) for j in dims)):  # type: ignore[arg-type]
             if table.get(key) is cluster:
                 del table[key]
+        for key in self._partner_keys(cluster):
+            self.partners[key] = [c for c in self.partners[key] if c is not cluster]
+
+    def partner(self, box: Cluster) -> Cluster | None:
+        """A box over the same dimensions equal to ``box`` on all but one (their union is a box)."""
+        for key in self._partner_keys(box):
+            j = key[1]
+            found = [
+                c for c in self.partners.get(key, ()) if c is not box and c.conditions[j] != box.conditions[j]
+            ]
+            if found:
+                return min(found, key=lambda c: c.id)
+        return None
 
     def lookup(self, codes: Sequence[int]) -> Cluster | None:
         best = None
@@ -287,6 +309,7 @@ class IHDRTree:
         self._dense: np.ndarray | None = None
         self._before: list[set[int]] | None = None  # services that must precede each service
         sizes = [len(d.values) for d in self._space.dims]
+        self._radices = tuple(sizes)
         self._strides = tuple(int(np.prod(sizes[j + 1 :], dtype=np.int64)) for j in range(len(sizes)))
         points = int(np.prod(sizes, dtype=np.int64))
         self._dense_ok = mode == "multi" and points * (len(home.services) + 1) <= DENSE_LIMIT
@@ -413,28 +436,19 @@ class IHDRTree:
                 row_pos = np.zeros(len(rows))
             if rows.size == 0:
                 continue
-            bits = ((row_masks[:, None] >> np.arange(n_dims)[None, :]) & 1).astype(bool)
-            keyed = np.where(bits, codes[rows].astype(np.int64), -1)
-            keys = np.concatenate([row_masks[:, None], keyed], axis=1)
-            uniq, first, inverse, counts = np.unique(
-                keys, axis=0, return_index=True, return_inverse=True, return_counts=True
-            )
-            inverse = inverse.reshape(-1)
-            pos_sums = np.bincount(inverse, weights=row_pos, minlength=len(uniq))
+            first, inverse, counts = _distinct_rows(row_masks, codes[rows], self._radices)
+            pos_sums = np.bincount(inverse, weights=row_pos, minlength=len(first))
             stats = {}
             for j in numeric:
                 vals = readings[rows, j]
-                stats[j] = (
-                    np.bincount(inverse, weights=vals, minlength=len(uniq)),
-                    _group_reduce(np.minimum, inverse, vals, len(uniq), np.inf),
-                    _group_reduce(np.maximum, inverse, vals, len(uniq), -np.inf),
-                )
+                low, high = _group_min_max(inverse, vals, len(first))
+                stats[j] = (np.bincount(inverse, weights=vals, minlength=len(first)), low, high)
             for order in np.argsort(first, kind="stable"):  # in the order the samples came
                 row = rows[first[order]]
                 extra = {j: (stats[j][0][order], stats[j][1][order], stats[j][2][order]) for j in numeric}
                 self._learn_row(
                     a,
-                    int(uniq[order][0]),
+                    int(row_masks[first[order]]),
                     tuple(int(c) for c in codes[row]),
                     tuple(None if np.isnan(r) else float(r) for r in readings[row]),
                     int(counts[order]),
@@ -535,7 +549,7 @@ class IHDRTree:
             return
         box = self._new_cluster({j: frozenset([codes[j]]) for j in dims}, count=n, position_sum=pos_sum)
         while True:
-            partner = self._merge_partner(node, box)
+            partner = index.partner(box)
             if partner is None:
                 break
             index.remove(partner)
@@ -551,17 +565,6 @@ class IHDRTree:
         node.clusters.append(box)
         index.add(box)
         self._dense = None
-
-    @staticmethod
-    def _merge_partner(node: Node, box: Cluster) -> Cluster | None:
-        """A box with the same dimensions, equal on all but one of them (their union is a box)."""
-        for other in node.clusters:
-            if other.conditions.keys() != box.conditions.keys():
-                continue
-            differ = [j for j in box.conditions if box.conditions[j] != other.conditions[j]]
-            if len(differ) == 1:
-                return other
-        return None
 
     # -- cognition ---------------------------------------------------------------------------
     def _dense_table(self) -> np.ndarray:
@@ -920,9 +923,31 @@ def _covers(box: Mapping[int, Condition], codes: Sequence[int]) -> bool:
     return all(codes[j] in c for j, c in box.items())  # type: ignore[operator]
 
 
-def _group_reduce(
-    op: np.ufunc, inverse: np.ndarray, values: np.ndarray, size: int, init: float
-) -> np.ndarray:
-    out = np.full(size, init)
-    op.at(out, inverse, values)
-    return out
+def _distinct_rows(
+    masks: np.ndarray, codes: np.ndarray, radices: tuple[int, ...]
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Groups of rows with the same mask and the same codes on it: (first row, group, size)."""
+    n_dims = codes.shape[1]
+    bits = ((masks[:, None] >> np.arange(n_dims)[None, :]) & 1).astype(bool)
+    shifted = np.where(bits, codes.astype(np.int64) + 1, 0)  # 0: unrelated
+    span = 1
+    for r in radices:
+        span *= r + 1
+    if span * (1 << n_dims) < 2**62:  # one int64 key per row: fast to sort
+        key = masks.astype(np.int64)
+        for j in range(n_dims):
+            key = key * (radices[j] + 1) + shifted[:, j]
+        _, first, inverse, counts = np.unique(key, return_index=True, return_inverse=True, return_counts=True)
+    else:
+        rows = np.concatenate([masks[:, None], shifted], axis=1)
+        _, first, inverse, counts = np.unique(
+            rows, axis=0, return_index=True, return_inverse=True, return_counts=True
+        )
+    return first, inverse.reshape(-1), counts
+
+
+def _group_min_max(inverse: np.ndarray, values: np.ndarray, size: int) -> tuple[np.ndarray, np.ndarray]:
+    order = np.argsort(inverse, kind="stable")
+    starts = np.searchsorted(inverse[order], np.arange(size))
+    ordered = values[order]
+    return np.minimum.reduceat(ordered, starts), np.maximum.reduceat(ordered, starts)
