@@ -119,7 +119,7 @@ ERROR_CASES = [
     # home show
     pytest.param(
         ["home", "show", "--home", "nope"],
-        "unknown home 'nope'; built-in homes: paper, or give the path of a YAML file",
+        "unknown home 'nope'; built-in homes: paper, paper_ann, or give the path of a YAML file",
         id="show-unknown-home",
     ),
     pytest.param(

@@ -459,6 +459,60 @@ def eval_command(
         stdout.print(f"report: {data['report']}")
 
 
+@app.command()
+def replay(
+    events: Annotated[
+        Path,
+        typer.Option(
+            "--events",
+            help="An event CSV file: timestamp, then every feature and device, and optionally services.",
+        ),
+    ],
+    home: HomeOption = "paper",
+    methods: Annotated[str, typer.Option(help="Methods, comma-separated.")] = "multi,paper,kmeans,hoeffding",
+    seed: Annotated[int, typer.Option(help="Seed of the samples the methods start from.")] = 0,
+    report: Annotated[
+        Path | None, typer.Option(help="Write a Markdown report with the running figures into this folder.")
+    ] = None,
+    json: JsonOption = False,
+) -> None:
+    """Prequential evaluation: every method predicts each event, then learns it."""
+    from homecog.evaluation.methods import METHODS
+    from homecog.evaluation.replay import replay as run_replay
+    from homecog.evaluation.replay import write_replay_report
+
+    h = load_home(home)
+    names = [m.strip() for m in methods.split(",") if m.strip()]
+    bad = [m for m in names if m not in METHODS]
+    if bad or not names:
+        raise UsageProblemError(
+            f"--methods: unknown method {bad[0] if bad else '(none)'!r}; "
+            f"expected some of {', '.join(METHODS)}"
+        )
+    if not events.is_file():
+        raise UsageProblemError(f"--events {events}: no such file")
+    if report is not None:
+        _check_writable(report / "replay.md")
+    result = run_replay(h, events, methods=names, seed=seed, progress=_status)
+    data = result.as_dict()
+    if report is not None:
+        data["report"] = str(write_replay_report(data, report, f"{events.name} on {h.name}"))
+    if json:
+        data.pop("running")
+        emit_json(data)
+        return
+    table = Table(
+        title=f"{result.events:,} events of {events.name}, predicted then learned", title_justify="left"
+    )
+    for col in ("method", "precision", "recall", "F1"):
+        table.add_column(col, justify="right" if col != "method" else "left")
+    for name, m in result.methods.items():
+        table.add_row(name, *(f"{m[k]:.4f}" for k in ("precision", "recall", "f1")))
+    stdout.print(table)
+    if report is not None:
+        stdout.print(f"report: {data['report']}")
+
+
 # -- entry point -------------------------------------------------------------------------------
 def main(argv: list[str] | None = None) -> int:
     """Run the command line; errors become one line on stderr and exit status 2."""

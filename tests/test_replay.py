@@ -1,0 +1,65 @@
+"""homecog replay: prequential evaluation of an event stream."""
+
+from __future__ import annotations
+
+import json
+from datetime import datetime, timedelta
+from pathlib import Path
+
+from homecog.cli.main import main
+from homecog.evaluation.scenarios import random_scenarios
+from homecog.home import load_home
+
+HOMES = Path(__file__).parent / "homes"
+STUDIO = str(HOMES / "studio.yaml")
+KIM = str(HOMES / "studio_kim.yaml")
+
+
+def write_events(path: Path, n: int) -> None:
+    """Events of the studio whose household wants what studio_kim.yaml says."""
+    home = load_home(STUDIO)
+    names = list(home.feature_names + home.device_names)
+    start = datetime(2026, 3, 1, 7, 0)
+    lines = ["timestamp," + ",".join(names) + ",services"]
+    for i, s in enumerate(random_scenarios(home, n, seed=3, truth=load_home(KIM))):
+        when = (start + timedelta(minutes=17 * i)).isoformat()
+        lines.append(when + "," + ",".join(s.context[k] for k in names) + "," + ";".join(sorted(s.truth)))
+    path.write_text("\n".join(lines) + "\n")
+
+
+def test_replay_learns_the_household(tmp_path, capsys):
+    events = tmp_path / "events.csv"
+    write_events(events, 300)
+    code = main(
+        ["replay", "--home", STUDIO, "--events", str(events), "--report", str(tmp_path / "r"), "--json"]
+    )
+    out, err = capsys.readouterr()
+    assert code == 0, err
+    data = json.loads(out)
+    assert data["events"] == 300
+    assert set(data["methods"]) == {"multi", "paper", "kmeans", "hoeffding"}
+    for m in data["methods"].values():
+        assert set(m) == {"precision", "recall", "f1"}
+    # the trees learn every correction at once; K-means cannot learn from the stream
+    assert data["methods"]["multi"]["f1"] > data["methods"]["kmeans"]["f1"]
+    assert data["methods"]["multi"]["f1"] >= 0.95
+    text = (tmp_path / "r" / "replay.md").read_text()
+    assert "| multi |" in text
+    assert (tmp_path / "r" / "running.png").read_bytes()[:4] == b"\x89PNG"
+
+
+def test_replay_bad_events(tmp_path, capsys):
+    events = tmp_path / "e.csv"
+    write_events(events, 5)
+    lines = events.read_text().splitlines()
+    lines[3] = "yesterday" + lines[3][lines[3].index(",") :]
+    events.write_text("\n".join(lines) + "\n")
+    code = main(["replay", "--home", STUDIO, "--events", str(events)])
+    _, err = capsys.readouterr()
+    assert code == 2
+    assert f"{events}: line 4, column timestamp: 'yesterday' is not an ISO 8601 time" in err
+    no_ts = tmp_path / "n.csv"
+    no_ts.write_text("\n".join(line.split(",", 1)[1] for line in lines) + "\n")
+    code = main(["replay", "--home", STUDIO, "--events", str(no_ts)])
+    _, err = capsys.readouterr()
+    assert code == 2 and "line 1: missing column(s) timestamp" in err
