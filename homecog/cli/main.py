@@ -382,6 +382,20 @@ def correct(
     )
 
 
+def _method_names(text: str) -> list[str]:
+    """The --methods list, validated."""
+    from homecog.evaluation.methods import METHODS
+
+    names = [m.strip() for m in text.split(",") if m.strip()]
+    bad = [m for m in names if m not in METHODS]
+    if bad or not names:
+        raise UsageProblemError(
+            f"--methods: unknown method {bad[0] if bad else '(none)'!r}; "
+            f"expected some of {', '.join(METHODS)}"
+        )
+    return names
+
+
 # -- homecog eval -------------------------------------------------------------------------------
 @app.command("eval")
 def eval_command(
@@ -405,17 +419,10 @@ def eval_command(
 ) -> None:
     """Precision, recall and F1 of every method on scenarios; with --corrections, how the robot develops."""
     from homecog.evaluation.evaluate import run as run_eval
-    from homecog.evaluation.methods import METHODS
 
     h = load_home(home)
     t = load_home(truth) if truth else h
-    names = [m.strip() for m in methods.split(",") if m.strip()]
-    bad = [m for m in names if m not in METHODS]
-    if bad or not names:
-        raise UsageProblemError(
-            f"--methods: unknown method {bad[0] if bad else '(none)'!r}; "
-            f"expected some of {', '.join(METHODS)}"
-        )
+    names = _method_names(methods)
     if corrections < 0:
         raise UsageProblemError(f"--corrections must be 0 or more, got {corrections}")
     if seed < 0:
@@ -477,18 +484,11 @@ def replay(
     json: JsonOption = False,
 ) -> None:
     """Prequential evaluation: every method predicts each event, then learns it."""
-    from homecog.evaluation.methods import METHODS
     from homecog.evaluation.replay import replay as run_replay
-    from homecog.evaluation.replay import write_replay_report
+    from homecog.evaluation.report import write_replay_report
 
     h = load_home(home)
-    names = [m.strip() for m in methods.split(",") if m.strip()]
-    bad = [m for m in names if m not in METHODS]
-    if bad or not names:
-        raise UsageProblemError(
-            f"--methods: unknown method {bad[0] if bad else '(none)'!r}; "
-            f"expected some of {', '.join(METHODS)}"
-        )
+    names = _method_names(methods)
     if not events.is_file():
         raise UsageProblemError(f"--events {events}: no such file")
     if report is not None:

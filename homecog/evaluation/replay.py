@@ -13,8 +13,6 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from homecog.environment.core import Core
 from homecog.evaluation.evaluate import build_methods, load_scenarios
 from homecog.evaluation.methods import METHODS, HoeffdingMethod, TreeMethod
@@ -100,47 +98,3 @@ def _prf(t: list[int]) -> tuple[float, float, float]:
     p = t[0] / t[1] if t[1] else 1.0
     r = t[0] / t[2] if t[2] else 1.0
     return p, r, (2 * p * r / (p + r) if p + r else 0.0)
-
-
-def running_chart(result: dict[str, Any], path: Path) -> Path:
-    """The running F1 of every method over the stream."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, ax = plt.subplots(figsize=(7.5, 3.6))
-    for name, series in result["running"].items():
-        arr = np.array(series)
-        if len(arr):
-            ax.plot(arr[:, 0], arr[:, 3] * 100, label=name)
-    ax.set_xlabel("events")
-    ax.set_ylabel("running F1 (%)")
-    ax.set_title(f"Prequential replay of {result['events']:,} events")
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
-
-
-def write_replay_report(result: dict[str, Any], folder: Path, title: str) -> Path:
-    folder.mkdir(parents=True, exist_ok=True)
-    running_chart(result, folder / "running.png")
-    lines = [
-        f"# Replay of {title}",
-        "",
-        f"{result['events']:,} events, each predicted before it was learned.",
-        "",
-        "| method | precision | recall | F1 |",
-        "|---|---|---|---|",
-    ]
-    lines += [
-        f"| {k} | {v['precision']:.4f} | {v['recall']:.4f} | {v['f1']:.4f} |"
-        for k, v in result["methods"].items()
-    ]
-    lines += ["", "![running](running.png)", ""]
-    path = folder / "replay.md"
-    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
-    return path

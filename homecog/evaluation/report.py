@@ -125,3 +125,42 @@ def write_report(report: dict[str, Any], folder: Path) -> Path:
     path = folder / "report.md"
     path.write_text("\n".join(lines) + "\n", encoding="utf-8")
     return path
+
+
+def running_chart(result: dict[str, Any], path: Path) -> Path:
+    """The running F1 of every method over the stream."""
+    plt = _plt()
+    fig, ax = plt.subplots(figsize=(7.5, 3.6))
+    for name, series in result["running"].items():
+        if series:
+            ax.plot([r[0] for r in series], [r[3] * 100 for r in series], label=name)
+    ax.set_xlabel("events")
+    ax.set_ylabel("running F1 (%)")
+    ax.set_title(f"Prequential replay of {result['events']:,} events")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def write_replay_report(result: dict[str, Any], folder: Path, title: str) -> Path:
+    folder.mkdir(parents=True, exist_ok=True)
+    running_chart(result, folder / "running.png")
+    lines = [
+        f"# Replay of {title}",
+        "",
+        f"{result['events']:,} events, each predicted before it was learned.",
+        "",
+        "| method | precision | recall | F1 |",
+        "|---|---|---|---|",
+    ]
+    lines += [
+        f"| {k} | {v['precision']:.4f} | {v['recall']:.4f} | {v['f1']:.4f} |"
+        for k, v in result["methods"].items()
+    ]
+    lines += ["", "![running](running.png)", ""]
+    path = folder / "replay.md"
+    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    return path
