@@ -18,6 +18,7 @@ def test_registered_and_passes_check_env():
     env.close()
 
 
+@pytest.mark.filterwarnings("ignore:.*alternative render modes")  # made without gymnasium.make
 def test_check_env_on_another_home(studio):
     check_env(SmartHomeEnv(studio))
 
