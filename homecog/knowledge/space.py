@@ -26,7 +26,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from homecog.errors import ContextError
-from homecog.home.model import Feature, Home, format_clock, format_number, parse_state
+from homecog.home.model import Feature, Home, format_clock, format_number
 
 
 @dataclass(frozen=True)
@@ -149,12 +149,6 @@ class Space:
                 readings.append(x)
         return Point(codes=tuple(codes), readings=tuple(readings))
 
-    def from_codes(self, codes: tuple[int, ...], readings: tuple[float | None, ...] | None = None) -> Point:
-        """A point from codes (readings default to None)."""
-        if len(codes) != len(self.dims):
-            raise ContextError(f"expected {len(self.dims)} codes, got {len(codes)}")
-        return Point(codes=tuple(int(c) for c in codes), readings=readings or (None,) * len(codes))
-
     def describe(self, p: Point) -> dict[str, str]:
         """A point as readable values: ``{"time": "22:00 (night)", "window": "on", ...}``."""
         out = {}
@@ -219,11 +213,6 @@ def parse_services(text: str | list[str], home: Home) -> list[str]:
         if n not in seen:
             seen.append(n)
     return seen
-
-
-def state_word(value: object) -> str:
-    """on/off of a device state given in any accepted form."""
-    return "on" if parse_state(value) else "off"
 
 
 def finite_span(bins: tuple[tuple[float, float], ...]) -> tuple[float, ...]:
