@@ -513,6 +513,39 @@ def replay(
         stdout.print(f"report: {data['report']}")
 
 
+@app.command("adapt-mit")
+def adapt_mit(
+    folder: Annotated[Path, typer.Argument(help="A subject's folder of the MIT home-activity data.")],
+    out: Annotated[Path, typer.Option(help="Where to write the home file and the event file.")] = Path("."),
+    name: Annotated[str | None, typer.Option(help="The home's name (default mit_<folder>).")] = None,
+    json: JsonOption = False,
+) -> None:
+    """Turn the MIT home-activity data of one subject into a home file and an event file."""
+    from homecog.evaluation.mit import convert
+
+    if not folder.is_dir():
+        raise UsageProblemError(f"{folder}: not a folder")
+    _check_writable(out / ".probe")
+    home_path, events_path, n = convert(folder, out, name)
+    h = load_home(home_path)  # what it wrote must load
+    data = {
+        "home": str(home_path),
+        "events": str(events_path),
+        "rows": n,
+        "name": h.name,
+        "devices": len(h.devices),
+        "contexts": h.context_count,
+    }
+    if json:
+        emit_json(data)
+        return
+    stdout.print(
+        f"wrote {home_path} ({len(h.devices)} devices, {h.context_count} contexts) and "
+        f"{events_path} ({n} events)"
+    )
+    stdout.print(f"next: homecog replay --home {home_path} --events {events_path}")
+
+
 # -- entry point -------------------------------------------------------------------------------
 def main(argv: list[str] | None = None) -> int:
     """Run the command line; errors become one line on stderr and exit status 2."""

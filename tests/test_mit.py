@@ -1,0 +1,67 @@
+"""The adapter of the MIT home-activity data: a home file and an event file that homecog reads."""
+
+from __future__ import annotations
+
+import csv
+from pathlib import Path
+
+import pytest
+
+from homecog.cli.main import main
+from homecog.evaluation.evaluate import load_scenarios
+from homecog.evaluation.mit import RealDataError, read_activities
+from homecog.home import load_home
+
+DATA = Path(__file__).resolve().parents[2] / "shared" / "realdata" / "mit-home-activity"
+pytestmark = pytest.mark.skipif(not DATA.is_dir(), reason=f"no real data at {DATA}")
+
+
+@pytest.mark.parametrize(("subject", "events", "devices"), [("subject1", 295, 10), ("subject2", 208, 11)])
+def test_subject_becomes_a_home_and_events(tmp_path, capsys, subject, events, devices):
+    assert main(["adapt-mit", str(DATA / subject), "--out", str(tmp_path), "--json"]) == 0
+    capsys.readouterr()
+    home = load_home(tmp_path / f"mit_{subject}.yaml")
+    assert len(home.devices) == devices
+    assert len(home.services) == 2 * devices
+    rows = load_scenarios(tmp_path / f"mit_{subject}-events.csv", home, home, events=True)
+    assert len(rows) == events
+    with (tmp_path / f"mit_{subject}-events.csv").open() as f:
+        table = list(csv.DictReader(f))
+    stamps = [r["timestamp"] for r in table]
+    assert stamps == sorted(stamps)  # replayed in the order it happened
+    assert any(r["services"] for r in table)
+    # a wanted switch always changes its device: TurnOn only for a device that is off
+    for r in table:
+        for service in filter(None, r["services"].split(";")):
+            device = next(
+                d.name
+                for d in home.devices
+                if service.endswith("".join(p.capitalize() for p in d.name.split("_")))
+            )
+            assert r[device] == ("off" if service.startswith("TurnOn") else "on")
+    # the clear-sky illumination is dark at night and bright at midday
+    night = [float(r["illumination"]) for r in table if r["time"] < "04:00"]
+    noon = [float(r["illumination"]) for r in table if "11:30" <= r["time"] <= "13:30"]
+    assert night and max(night) == 0.0
+    assert noon and min(noon) > 10_000
+
+
+def test_the_first_activity_of_subject1():
+    first = sorted(read_activities(DATA / "subject1" / "activities_data.csv"), key=lambda a: a.start)[0]
+    assert first.start.isoformat().startswith("2003-03-27")
+
+
+def test_broken_data_names_file_and_line(tmp_path, capsys):
+    (tmp_path / "sensors.csv").write_text("101,Bathroom,Light switch\n")
+    (tmp_path / "activities_data.csv").write_text(
+        "Toileting,4/1/2003,17:30:36,17:46:41\n101\nLight switch\n17:39:37\n"
+    )
+    with pytest.raises(RealDataError, match="4 lines; expected blocks of 5 lines"):
+        read_activities(tmp_path / "activities_data.csv")
+    (tmp_path / "activities_data.csv").write_text(
+        "Toileting,4/x/2003,17:30:36,17:46:41\n101\nLight switch\n17:39:37\n17:40:00\n"
+    )
+    code = main(["adapt-mit", str(tmp_path), "--out", str(tmp_path / "out")])
+    err = capsys.readouterr().err
+    assert code == 2
+    assert "activities_data.csv: line 1: '4/x/2003' is not a date M/D/YYYY" in err and err.count("\n") == 1
