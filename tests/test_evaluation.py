@@ -49,8 +49,10 @@ def test_metrics_by_hand():
     # averaged over scenarios: precision (1 + 1/2 + 1) / 3, recall (1/2 + 1 + 1) / 3
     assert r.averaged["precision"] == pytest.approx(2.5 / 3)
     assert r.averaged["recall"] == pytest.approx(2.5 / 3)
-    assert r.per_service["RadioOn"] == {"support": 0, "precision": 0.0, "recall": 1.0, "f1": 0.0}
-    assert r.per_service["BringTea"]["recall"] == 0.0
+    # an empty ratio is 1 only where both sides are empty: said but never wanted, and wanted
+    # but never said, are both 0 (a method that never answers does not get precision 1)
+    assert r.per_service["RadioOn"] == {"support": 0, "precision": 0.0, "recall": 0.0, "f1": 0.0}
+    assert r.per_service["BringTea"] == {"support": 1, "precision": 0.0, "recall": 0.0, "f1": 0.0}
     assert r.per_service["LampOn"] == {"support": 1, "precision": 1.0, "recall": 1.0, "f1": 1.0}
     assert space.names[0] == "time"
 

@@ -12,7 +12,7 @@ from knowledge_fixtures import home, samples, tree
 from homecog.environment.core import Core
 from homecog.errors import ContextError
 from homecog.evaluation.scenarios import random_scenarios, scores
-from homecog.knowledge.ihdr import IHDRTree, Numeric
+from homecog.knowledge.ihdr import IDLE, IHDRTree, Numeric
 from homecog.knowledge.samples import _axes
 from homecog.knowledge.store import Store
 
@@ -81,20 +81,23 @@ def _performed_table(name):
         len(space.dims) - space.n_features
     )
     n_c = Core(home(name)).n_contexts
-    performed = (ss.positions >= 0).reshape(n_c, -1, ss.positions.shape[1])
-    return ss, space, performed, shape
+    performed = ss.positions >= 0
+    performed = np.concatenate([performed, ~performed.any(axis=1, keepdims=True)], axis=1)  # + idle
+    return ss, space, performed.reshape(n_c, -1, performed.shape[1]), shape
 
 
 @pytest.mark.parametrize("name", ["studio", "flat"])
 def test_every_sample_condition_is_sufficient_and_keeps_what_matters(name):
     """Over the whole space: a sample's conditions hold only where the policy performs the
-    service, and every dimension whose change alone flips the decision is among them."""
+    service, and every dimension whose change alone flips the decision is among them; the
+    same for "nothing to do" (the last column)."""
     ss, space, performed, shape = _performed_table(name)
     axes = _axes(space)
     n_dims = len(space.dims)
-    for a in range(ss.positions.shape[1]):
+    assert ss.masks.shape[1] == performed.shape[2]
+    for a in range(performed.shape[2]):
         table = performed[:, :, a].reshape(shape)
-        for i in np.flatnonzero(ss.positions[:, a] >= 0):
+        for i in np.flatnonzero(performed[:, :, a].reshape(-1)):
             mask = int(ss.masks[i, a])
             codes = ss.codes[i]
             index: list[object] = [slice(None)] * n_dims
@@ -262,13 +265,12 @@ def test_learn_one_equals_learn_many(mode):
     names = home("studio").service_names
     for i in range(len(ss)):
         s = ss[i]
-        one.learn_one(
-            s.point,
-            [names[a] for a in s.services],
-            relevant={names[a]: m for a, m in zip(s.services, s.relevant, strict=True)},
-        )
+        relevant = {names[a]: m for a, m in zip(s.services, s.relevant, strict=True)}
+        relevant[IDLE] = int(ss.masks[i, -1])
+        one.learn_one(s.point, [names[a] for a in s.services], relevant=relevant)
     for s in random_scenarios(home("studio"), 300, seed=6):
-        assert one.explain_one(s.point).services == many.explain_one(s.point).services
+        a, b = one.explain_one(s.point), many.explain_one(s.point)
+        assert (a.services, a.unknown) == (b.services, b.unknown)
 
 
 def test_invalid_mode_and_input():

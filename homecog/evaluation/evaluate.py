@@ -22,7 +22,7 @@ from typing import Any
 from homecog.environment.core import Core
 from homecog.errors import ContextError, HomecogError
 from homecog.evaluation.methods import METHODS, HoeffdingMethod, KMeansMethod, Method, TreeMethod
-from homecog.evaluation.scenarios import Scenario, random_scenarios, scores
+from homecog.evaluation.scenarios import Scenario, random_scenarios, ratio, scores
 from homecog.home.loader import is_compatible
 from homecog.home.model import Home, parse_state
 from homecog.knowledge.ihdr import IHDRTree
@@ -143,8 +143,8 @@ def evaluate(method: Method, scenarios: Sequence[Scenario], services: Sequence[s
     per_p, per_r = [], []
     for p, t in zip(predicted, truths, strict=True):
         hit = len(set(p) & t)
-        per_p.append(hit / len(set(p)) if p else (1.0 if not t else 0.0))
-        per_r.append(hit / len(t) if t else (1.0 if not p else 0.0))
+        per_p.append(ratio(hit, len(set(p)), len(t)))
+        per_r.append(ratio(hit, len(t), len(set(p))))
     avg_p, avg_r = sum(per_p) / len(per_p), sum(per_r) / len(per_r)
     averaged = {
         "precision": avg_p,
@@ -156,8 +156,8 @@ def evaluate(method: Method, scenarios: Sequence[Scenario], services: Sequence[s
         tp = sum(1 for p, t in zip(predicted, truths, strict=True) if name in p and name in t)
         fp = sum(1 for p, t in zip(predicted, truths, strict=True) if name in p and name not in t)
         fn = sum(1 for p, t in zip(predicted, truths, strict=True) if name not in p and name in t)
-        prec = tp / (tp + fp) if tp + fp else 1.0
-        rec = tp / (tp + fn) if tp + fn else 1.0
+        prec = ratio(tp, tp + fp, fn)
+        rec = ratio(tp, tp + fn, fp)
         per_service[name] = {
             "support": tp + fn,
             "precision": round(prec, 6),

@@ -16,6 +16,7 @@ from typing import Any
 from homecog.environment.core import Core
 from homecog.evaluation.evaluate import build_methods, load_scenarios
 from homecog.evaluation.methods import METHODS, HoeffdingMethod, TreeMethod
+from homecog.evaluation.scenarios import ratio
 from homecog.home.model import Home
 from homecog.knowledge.pipeline import ensure_q_table
 from homecog.knowledge.samples import make_samples
@@ -95,6 +96,6 @@ def replay(
 
 
 def _prf(t: list[int]) -> tuple[float, float, float]:
-    p = t[0] / t[1] if t[1] else 1.0
-    r = t[0] / t[2] if t[2] else 1.0
+    p = ratio(t[0], t[1], t[2])
+    r = ratio(t[0], t[2], t[1])
     return p, r, (2 * p * r / (p + r) if p + r else 0.0)

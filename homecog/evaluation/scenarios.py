@@ -83,13 +83,25 @@ def random_scenarios(home: Home, n: int, *, seed: int = 0, truth: Home | None = 
     return out
 
 
+def ratio(hits: int, n: int, other: int) -> float:
+    """``hits / n``; where ``n`` is 0 the ratio is 1 if ``other`` is 0 too (nothing to find and
+    nothing said) and 0 otherwise: a method that never answers gets precision 0, not 1.
+
+    >>> ratio(3, 4, 5), ratio(0, 0, 0), ratio(0, 0, 7)
+    (0.75, 1.0, 0.0)
+    """
+    if n:
+        return hits / n
+    return 1.0 if other == 0 else 0.0
+
+
 def scores(predicted: Sequence[Sequence[str]], truth: Sequence[Sequence[str]]) -> dict[str, float]:
     """Micro precision Σ|p∩t|/Σ|p|, recall Σ|p∩t|/Σ|t|, their F1, and the exact-match rate."""
     hit = sum(len(set(p) & set(t)) for p, t in zip(predicted, truth, strict=True))
     n_pred = sum(len(set(p)) for p in predicted)
     n_true = sum(len(set(t)) for t in truth)
-    precision = hit / n_pred if n_pred else 1.0
-    recall = hit / n_true if n_true else 1.0
+    precision = ratio(hit, n_pred, n_true)
+    recall = ratio(hit, n_true, n_pred)
     f1 = 2 * precision * recall / (precision + recall) if precision + recall else 0.0
     exact = sum(set(p) == set(t) for p, t in zip(predicted, truth, strict=True)) / max(1, len(truth))
     return {"precision": precision, "recall": recall, "f1": f1, "exact": exact}

@@ -101,7 +101,7 @@ class Numeric:
 Condition = frozenset[int] | Numeric
 
 
-@dataclass
+@dataclass(eq=False)  # a cluster is an identity: equal conditions do not make two clusters one
 class Cluster:
     """A cluster of a node: conditions on the related dimensions (the others are unrelated)."""
 
@@ -226,20 +226,25 @@ class _BoxIndex:
     def __init__(self) -> None:
         self.by_mask: dict[int, tuple[Any, dict[tuple[int, ...], Cluster]]] = {}
         # (mask, j, the box's values on its other dimensions) -> boxes: merge partners at a glance
-        self.partners: dict[tuple[Any, ...], list[Cluster]] = {}
+        self.partners: dict[tuple[Any, ...], dict[int, Cluster]] = {}
+        self._keys: dict[int, list[tuple[Any, ...]]] = {}  # cluster id (unique in a node) -> partner keys
 
     @staticmethod
-    def _partner_keys(cluster: Cluster) -> list[tuple[Any, ...]]:
+    def partner_keys(cluster: Cluster) -> list[tuple[Any, ...]]:
         dims = sorted(cluster.conditions)
-        return [(cluster.mask, j, tuple(cluster.conditions[d] for d in dims if d != j)) for j in dims]
+        values = [cluster.conditions[d] for d in dims]
+        mask = sum(1 << j for j in dims)
+        return [(mask, j, (*values[:i], *values[i + 1 :])) for i, j in enumerate(dims)]
 
-    def add(self, cluster: Cluster) -> None:
+    def add(self, cluster: Cluster, keys: list[tuple[Any, ...]] | None = None) -> None:
         dims = tuple(sorted(cluster.conditions))
         _, table = self.by_mask.setdefault(cluster.mask, (_getter(dims), {}))
         for key in itertools.product(*(sorted(cluster.conditions[j]) for j in dims)):  # type: ignore[arg-type]
             table[key] = cluster
-        for key in self._partner_keys(cluster):
-            self.partners.setdefault(key, []).append(cluster)
+        keys = keys if keys is not None else self.partner_keys(cluster)
+        self._keys[cluster.id] = keys
+        for key in keys:
+            self.partners.setdefault(key, {})[cluster.id] = cluster
 
     def remove(self, cluster: Cluster) -> None:
         dims = tuple(sorted(cluster.conditions))
@@ -247,15 +252,19 @@ class _BoxIndex:
         for key in itertools.product(*(sorted(cluster.conditions[j]) for j in dims)):  # type: ignore[arg-type]
             if table.get(key) is cluster:
                 del table[key]
-        for key in self._partner_keys(cluster):
-            self.partners[key] = [c for c in self.partners[key] if c is not cluster]
+        for key in self._keys.pop(cluster.id):
+            del self.partners[key][cluster.id]
 
-    def partner(self, box: Cluster) -> Cluster | None:
-        """A box over the same dimensions equal to ``box`` on all but one (their union is a box)."""
-        for key in self._partner_keys(box):
+    def partner(self, box: Cluster, keys: list[tuple[Any, ...]]) -> Cluster | None:
+        """A box over the same dimensions equal to ``box`` on all but one (their union is a box).
+
+        ``keys`` are ``partner_keys(box)``."""
+        for key in keys:
             j = key[1]
             found = [
-                c for c in self.partners.get(key, ()) if c is not box and c.conditions[j] != box.conditions[j]
+                c
+                for c in self.partners.get(key, {}).values()
+                if c is not box and c.conditions[j] != box.conditions[j]
             ]
             if found:
                 return min(found, key=lambda c: c.id)
@@ -432,7 +441,10 @@ class IHDRTree:
                 row_pos = positions[rows, a].astype(np.float64)
             else:
                 rows = np.flatnonzero(idle)
-                row_masks = np.full(len(rows), (1 << n_dims) - 1, dtype=np.int64)
+                if masks.shape[1] > n_services:
+                    row_masks = masks[rows, n_services]
+                else:
+                    row_masks = np.full(len(rows), (1 << n_dims) - 1, dtype=np.int64)
                 row_pos = np.zeros(len(rows))
             if rows.size == 0:
                 continue
@@ -549,7 +561,8 @@ class IHDRTree:
             return
         box = self._new_cluster({j: frozenset([codes[j]]) for j in dims}, count=n, position_sum=pos_sum)
         while True:
-            partner = index.partner(box)
+            keys = index.partner_keys(box)
+            partner = index.partner(box, keys)
             if partner is None:
                 break
             index.remove(partner)
@@ -563,7 +576,7 @@ class IHDRTree:
                 seq=partner.seq,
             )
         node.clusters.append(box)
-        index.add(box)
+        index.add(box, keys)
         self._dense = None
 
     # -- cognition ---------------------------------------------------------------------------

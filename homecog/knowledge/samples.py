@@ -73,7 +73,9 @@ class SampleSet:
 
     ``codes[i]`` are the point's codes, ``readings[i, j]`` the raw reading of numeric
     dimension ``j`` (NaN for discrete ones), ``positions[i, a]`` the step at which the policy
-    performs service ``a`` (−1: not performed) and ``masks[i, a]`` what matters to it.
+    performs service ``a`` (−1: not performed) and ``masks[i, a]`` what matters to it; the
+    last column of ``masks`` is what matters to "nothing to do" where no service is performed
+    (sample sets stored before that column existed have none: every dimension matters).
     """
 
     space: Space
@@ -180,8 +182,10 @@ def sufficient_masks(
     axes = _axes(space)
     shape = [dim_size(d) for d in space.dims[: space.n_features]] + [2] * (n_dims - space.n_features)
     out = np.zeros((n_c * n_h, n_a), dtype=np.int64)
+    strides = np.array([int(np.prod(shape[i + 1 :])) for i in range(n_dims)], dtype=np.int64)
+    flat = codes.astype(np.int64) @ strides[axes]  # each point's index in the reshaped table
     for a in range(n_a):
-        table = performed[:, :, a].reshape(shape)
+        table = np.ascontiguousarray(performed[:, :, a]).reshape(shape)
         pos = np.flatnonzero(performed[:, :, a].reshape(-1))
         if pos.size == 0:
             continue
@@ -189,26 +193,47 @@ def sufficient_masks(
         # dimensions most often sensitive for this service are added first
         freq = [int(((masks >> j) & 1).sum()) for j in range(n_dims)]
         order = sorted(range(n_dims), key=lambda j: -freq[j])
-        stack = [(pos, masks)]
-        while stack:
-            members, member_masks = stack.pop()
-            for mask in np.unique(member_masks):
-                group = members[member_masks == mask]
-                bits = [j for j in range(n_dims) if mask >> j & 1]
-                keys = codes[group][:, bits] if bits else np.zeros((len(group), 0), dtype=codes.dtype)
-                uniq, inverse = np.unique(keys, axis=0, return_inverse=True)
-                inverse = inverse.reshape(-1)
-                for g, key in enumerate(uniq):
-                    idx = [slice(None)] * n_dims
-                    for j, v in zip(bits, key, strict=True):
-                        idx[axes[j]] = int(v)
-                    sub = group[inverse == g]
-                    if table[tuple(idx)].all():
-                        out[sub, a] = mask
-                        continue
-                    extra = next(j for j in order if not mask >> j & 1)
-                    stack.append((sub, np.full(len(sub), mask | (1 << extra), dtype=np.int64)))
+        # Points are grouped by mask; a point's box is all-positive when the table reduced
+        # with `all` over the other dimensions is true at the point, so each mask is one
+        # vectorized test however many boxes it has.
+        pending: dict[int, list[np.ndarray]] = {}
+        for mask in np.unique(masks):
+            pending[int(mask)] = [pos[masks == mask]]
+        while pending:
+            mask = min(pending)  # any order gives the same result; this one is reproducible
+            members = np.concatenate(pending.pop(mask))
+            ok = _box_all(table, axes, mask, codes, members, flat[members])
+            out[members[ok], a] = mask
+            if not ok.all():
+                extra = next(j for j in order if not mask >> j & 1)
+                pending.setdefault(mask | (1 << extra), []).append(members[~ok])
     return out
+
+
+def _box_all(
+    table: np.ndarray, axes: list[int], mask: int, codes: np.ndarray, members: np.ndarray, flat: np.ndarray
+) -> np.ndarray:
+    """Whether each member's box (its codes on ``mask``, anything elsewhere) is all true.
+
+    Small boxes are read point by point; large ones from ``table`` reduced over the free axes
+    once for all members — whichever touches fewer cells.
+    """
+    n_dims = len(axes)
+    free = sorted(axes[j] for j in range(n_dims) if not mask >> j & 1)
+    box = int(np.prod([table.shape[i] for i in free])) if free else 1
+    if box * len(members) <= table.size:
+        strides = np.array([int(np.prod(table.shape[i + 1 :])) for i in range(n_dims)], dtype=np.int64)
+        offsets = np.zeros(1, dtype=np.int64)
+        for i in free:  # every combination of the free axes, as flat offsets
+            offsets = (offsets[:, None] + np.arange(table.shape[i]) * strides[i]).reshape(-1)
+        fixed = [j for j in range(n_dims) if not mask >> j & 1]
+        base = flat - (codes[members][:, fixed].astype(np.int64) @ strides[[axes[j] for j in fixed]])
+        return table.reshape(-1)[base[:, None] + offsets[None, :]].all(axis=1)
+    holds = table.all(axis=tuple(free)) if free else table
+    kept = sorted((j for j in range(n_dims) if mask >> j & 1), key=lambda j: axes[j])
+    if not kept:
+        return np.full(len(members), bool(holds))
+    return holds[tuple(codes[members, j] for j in kept)]
 
 
 def make_samples(core: Core, q: np.ndarray, *, seed: int = 0, limit: int | None = None) -> SampleSet:
@@ -217,6 +242,8 @@ def make_samples(core: Core, q: np.ndarray, *, seed: int = 0, limit: int | None 
     limit = limit or 2 * (core.n_devices + int(core.tables.need_count.max())) + 2
     positions = greedy_positions(core.tables, q, limit)
     performed = positions >= 0
+    # "nothing to do" is learned like a service: what matters to it is found the same way
+    performed = np.concatenate([performed, ~performed.any(axis=2, keepdims=True)], axis=2)
     sensitive = relevance(space, performed)
     codes = point_codes(core)
     masks = sufficient_masks(space, performed, sensitive, codes)
