@@ -29,3 +29,8 @@ class QTableError(HomecogError):
 
 class HomeTooLargeError(HomecogError):
     """A home whose state space does not fit a tabular Q table."""
+
+
+class PlanningError(HomecogError):
+    """A request that cannot be planned or carried out: an unknown service, a home without a
+    layout, a place inside a wall or out of the robot's reach."""

@@ -546,6 +546,97 @@ def adapt_mit(
     stdout.print(f"next: homecog replay --home {home_path} --events {events_path}")
 
 
+# -- homecog plan / simulate ------------------------------------------------------------------
+ServicesOption = Annotated[
+    str, typer.Option("--services", help="Services in priority order, comma-separated.")
+]
+PlanContextOption = Annotated[
+    str | None,
+    typer.Option(
+        "--context", help="The context (as for cognize): the user's location and the device states."
+    ),
+]
+
+
+def _plan(h: Home, services: str, context: str | None) -> Any:
+    from homecog.knowledge.space import Space, parse_context
+    from homecog.planning import plan_services
+
+    names = [s.strip() for s in services.split(",") if s.strip()]
+    if not names:
+        raise UsageProblemError("--services: expected at least one service")
+    values = None
+    if context is not None:
+        space = Space(h)
+        values = space.context(parse_context(context, space))
+    return plan_services(h, names, context=values)
+
+
+@app.command()
+def plan(
+    services: ServicesOption,
+    home: HomeOption = "paper",
+    context: PlanContextOption = None,
+    json: JsonOption = False,
+) -> None:
+    """Decompose services into robot actions (HTN), in the given order, with the task tree."""
+    h = load_home(home)
+    result = _plan(h, services, context)
+    if json:
+        emit_json({"actions": [list(a) for a in result.actions], "tree": [n.as_dict() for n in result.tree]})
+        return
+    stdout.print(result.outline(), highlight=False, markup=False)
+    stdout.print(f"{len(result.actions)} actions", style="dim")
+
+
+@app.command()
+def simulate(
+    services: ServicesOption,
+    home: HomeOption = "paper",
+    context: PlanContextOption = None,
+    png: Annotated[Path | None, typer.Option("--png", help="Draw the trajectory into this PNG file.")] = None,
+    json: JsonOption = False,
+) -> None:
+    """Plan the services and carry the plan out with a simulated robot on the floor plan."""
+    from homecog.simulation import draw_trajectory
+    from homecog.simulation import simulate as run_simulation
+
+    h = load_home(home)
+    if png is not None:
+        _check_writable(png)
+    result = _plan(h, services, context)
+    sim = run_simulation(h, result.actions, devices=_initial_devices(h, context))
+    data = sim.as_dict()
+    data["png"] = None
+    if png is not None:
+        draw_trajectory(h.layout, sim, png)
+        data["png"] = str(png)
+    if json:
+        emit_json(data)
+        return
+    for step in sim.timeline:
+        stdout.print(
+            f"{step['start']:7.1f} s  {' '.join(step['action'])}"
+            + (f"  ({step['distance_m']:.2f} m)" if step["distance_m"] else ""),
+            highlight=False,
+            markup=False,
+        )
+    stdout.print(f"{len(sim.timeline)} actions in {sim.seconds:.1f} s, {sim.distance_m:.2f} m driven")
+    if png is not None:
+        stdout.print(f"trajectory: {png}")
+
+
+def _initial_devices(h: Home, context: str | None) -> dict[str, bool]:
+    """The device states before the plan: from the context, else all off."""
+    if context is None:
+        return {d.name: False for d in h.devices}
+    from homecog.knowledge.space import Space, parse_context
+    from homecog.planning import initial_state
+
+    space = Space(h)
+    return initial_state(h, space.context(parse_context(context, space))).devices
+
+
 # -- entry point -------------------------------------------------------------------------------
 def main(argv: list[str] | None = None) -> int:
     """Run the command line; errors become one line on stderr and exit status 2."""

@@ -28,6 +28,7 @@ from typing import Any
 import yaml
 
 from homecog.errors import HomeFileError
+from homecog.home.layout import parse_layout
 from homecog.home.model import (
     ComfortRule,
     Condition,
@@ -250,9 +251,15 @@ class _Validator:
         needs = self.service_rules(data.get("needs"), "needs", features, devices, services)
         prohibited = self.service_rules(data.get("prohibited"), "prohibited", features, devices, services)
         rewards = self.rewards(data.get("rewards"))
-        layout = data.get("layout")
-        if layout is not None and not isinstance(layout, dict):
-            raise self.fail("layout", f"expected a mapping, got {_kind(layout)}")
+        layout = None
+        if data.get("layout") is not None:
+            layout = parse_layout(
+                data["layout"],
+                self.fail,
+                devices={d.name: (d.room, d.iot) for d in devices},
+                interaction={s.name for s in services if not s.sets},
+                services={s.name for s in services},
+            )
 
         home = Home(
             name=name.strip(),

@@ -22,6 +22,7 @@ from dataclasses import dataclass, field
 from typing import Literal
 
 from homecog.errors import ContextError
+from homecog.home.layout import Layout
 
 FeatureKind = Literal["clock", "numeric", "categorical"]
 ON, OFF = True, False
@@ -254,7 +255,7 @@ class Home:
     needs: tuple[tuple[Condition, ...], ...]  # per service, in service order; () = never
     prohibited: tuple[tuple[Condition, ...], ...]  # per service, in service order
     rewards: Rewards = field(default_factory=Rewards)
-    layout: Mapping[str, object] | None = None
+    layout: Layout | None = None
     routine: object | None = None
     description: str | None = None
     source: str = "<memory>"

@@ -1,0 +1,301 @@
+"""The floor plan of a home (the ``layout`` section, SPEC §2, §8): rooms, walls, doors,
+places and objects in metres, and what the robot does for an interaction service.
+
+::
+
+    layout:
+      size: [12, 8]                    # x by y in metres; its border is the outer wall
+      rooms: {living_room: [0, 0, 7, 5], bedroom: [7, 0, 12, 5]}   # [x0, y0, x1, y1]
+      walls: [[7, 0, 7, 5]]            # interior walls, horizontal or vertical segments
+      doors: [[7, 2, 7, 3]]            # openings, each lying on a wall
+      places: {sofa: [2, 2], bed: [10, 1], charger: [0.5, 4.5], dispenser: [1, 7]}
+      objects: {cup: dispenser}        # movable objects and the place each starts at
+      robot: charger                   # where the robot starts (default: the first place)
+      errands:                         # optional, per interaction service
+        SendDrinks: {bring: cup, pour: true}  # fetch it (pour at its place), hand it over
+        ChargeItSelf: {dock: charger}         # go there and dock
+        CallToWakeup: {say: Good morning}     # go to the user and speak
+
+An interaction service without an errand is "go to the user and speak its name". A device
+is at the place of its own name if there is one, else at the centre of its room; the user is
+at the place named by the context's ``location`` value (or the centre of a room of that name).
+
+>>> from homecog.home import load_home
+>>> layout = load_home("paper").layout
+>>> layout.place("charger") == layout.places["charger"]
+True
+>>> layout.errand("SendDrinks")
+Errand(bring='cup', pour=True, dock=None, say=None)
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+from homecog.errors import HomeFileError
+
+Point2 = tuple[float, float]
+Segment = tuple[float, float, float, float]
+Rect = tuple[float, float, float, float]
+
+WALL_THICKNESS = 0.1  # metres; walls are drawn and rasterized this thick
+_ERRAND_KEYS = ("bring", "pour", "dock", "say")
+
+
+@dataclass(frozen=True)
+class Errand:
+    """What the robot does for an interaction service (one of bring, dock or say)."""
+
+    bring: str | None = None
+    pour: bool = False
+    dock: str | None = None
+    say: str | None = None
+
+
+@dataclass(frozen=True)
+class Layout:
+    """A validated floor plan. Coordinates in metres, x to the right and y up."""
+
+    size: Point2
+    rooms: Mapping[str, Rect]
+    walls: tuple[Segment, ...]
+    doors: tuple[Segment, ...]
+    places: Mapping[str, Point2]
+    objects: Mapping[str, str]
+    robot: str
+    errands: Mapping[str, Errand] = field(default_factory=dict)
+    device_rooms: Mapping[str, str] = field(default_factory=dict)
+
+    def place(self, name: str) -> Point2:
+        """The point of a place, or the centre of a room of that name."""
+        if name in self.places:
+            return self.places[name]
+        if name in self.rooms:
+            x0, y0, x1, y1 = self.rooms[name]
+            return ((x0 + x1) / 2, (y0 + y1) / 2)
+        raise KeyError(name)
+
+    def has_place(self, name: str) -> bool:
+        return name in self.places or name in self.rooms
+
+    def device_place(self, device: str) -> str:
+        """Where the robot goes to switch a device by hand: its place, or its room."""
+        if device in self.places:
+            return device
+        room = self.device_rooms.get(device)
+        if room is not None and room in self.rooms:
+            return room
+        raise KeyError(device)
+
+    def errand(self, service: str) -> Errand | None:
+        return self.errands.get(service)
+
+    def room_at(self, p: Point2) -> str | None:
+        for name, (x0, y0, x1, y1) in self.rooms.items():
+            if x0 <= p[0] <= x1 and y0 <= p[1] <= y1:
+                return name
+        return None
+
+    def solid_walls(self) -> list[Segment]:
+        """Every wall piece, the border included, with the doors cut out."""
+        w, h = self.size
+        pieces = [(0.0, 0.0, w, 0.0), (w, 0.0, w, h), (0.0, h, w, h), (0.0, 0.0, 0.0, h)]
+        out: list[Segment] = []
+        for wall in [*pieces, *self.walls]:
+            out.extend(_cut(wall, [d for d in self.doors if _on_segment(d, wall)]))
+        return out
+
+    def wall_near(self, p: Point2, clearance: float = WALL_THICKNESS / 2) -> Segment | None:
+        """A solid wall piece within ``clearance`` of ``p``, if any."""
+        for s in self.solid_walls():
+            if _distance(p, s) < clearance:
+                return s
+        return None
+
+
+def _horizontal(s: Segment) -> bool:
+    return s[1] == s[3]
+
+
+def _on_segment(door: Segment, wall: Segment) -> bool:
+    """Whether ``door`` lies along ``wall`` (collinear and within it)."""
+    if _horizontal(wall) != _horizontal(door) or (wall[0] == wall[2] and wall[1] == wall[3]):
+        return False
+    if _horizontal(wall):
+        lo, hi = sorted((wall[0], wall[2]))
+        return door[1] == wall[1] and all(lo <= x <= hi for x in (door[0], door[2]))
+    lo, hi = sorted((wall[1], wall[3]))
+    return door[0] == wall[0] and all(lo <= y <= hi for y in (door[1], door[3]))
+
+
+def _cut(wall: Segment, doors: list[Segment]) -> list[Segment]:
+    """The pieces of a wall left after cutting the doors out of it."""
+    axis = 0 if _horizontal(wall) else 1
+    lo, hi = sorted((wall[axis], wall[axis + 2]))
+    gaps = sorted(tuple(sorted((d[axis], d[axis + 2]))) for d in doors)
+    pieces, start = [], lo
+    for g0, g1 in gaps:
+        if g0 > start:
+            pieces.append((start, g0))
+        start = max(start, g1)
+    if start < hi:
+        pieces.append((start, hi))
+    if axis == 0:
+        return [(a, wall[1], b, wall[1]) for a, b in pieces]
+    return [(wall[0], a, wall[0], b) for a, b in pieces]
+
+
+def _distance(p: Point2, s: Segment) -> float:
+    (x, y), (x0, y0, x1, y1) = p, s
+    dx, dy = x1 - x0, y1 - y0
+    t = 0.0 if dx == dy == 0 else max(0.0, min(1.0, ((x - x0) * dx + (y - y0) * dy) / (dx * dx + dy * dy)))
+    return math.hypot(x - (x0 + t * dx), y - (y0 + t * dy))
+
+
+def parse_layout(
+    data: object,
+    fail: Callable[[str, str], HomeFileError],
+    *,
+    devices: Mapping[str, tuple[str | None, bool]],
+    interaction: set[str],
+    services: set[str],
+) -> Layout:
+    """Validate the ``layout`` section; ``devices`` maps each device to (room, iot).
+
+    ``fail(path, message)`` makes the error that names the file and key path.
+    """
+
+    def mapping(value: object, path: str) -> dict[str, Any]:
+        if not isinstance(value, dict):
+            raise fail(path, f"expected a mapping, got {type(value).__name__}")
+        return value
+
+    def numbers(value: object, path: str, n: int) -> tuple[float, ...]:
+        ok = isinstance(value, (list, tuple)) and len(value) == n
+        ok = ok and all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in value)  # type: ignore[union-attr]
+        if not ok or not all(math.isfinite(v) for v in value):  # type: ignore[union-attr]
+            raise fail(path, f"expected a list of {n} numbers (metres), got {value!r}")
+        return tuple(float(v) for v in value)  # type: ignore[union-attr]
+
+    data = mapping(data, "layout")
+    allowed = ("size", "rooms", "walls", "doors", "places", "objects", "robot", "errands")
+    for key in data:
+        if key not in allowed:
+            raise fail(f"layout.{key}", f"unknown key; expected one of {', '.join(allowed)}")
+    for key in ("size", "places"):
+        if key not in data:
+            raise fail("layout", f"missing key '{key}'")
+    w, h = numbers(data["size"], "layout.size", 2)
+    if w <= 0 or h <= 0:
+        raise fail("layout.size", f"expected positive width and height, got {w:g} by {h:g}")
+
+    def inside(p: tuple[float, ...], path: str) -> None:
+        for x, y in zip(p[::2], p[1::2], strict=True):
+            if not (0 <= x <= w and 0 <= y <= h):
+                raise fail(path, f"point ({x:g}, {y:g}) lies outside the floor of {w:g} by {h:g} m")
+
+    rooms: dict[str, Rect] = {}
+    for name, value in mapping(data.get("rooms", {}) or {}, "layout.rooms").items():
+        r = numbers(value, f"layout.rooms.{name}", 4)
+        if not (r[0] < r[2] and r[1] < r[3]):
+            raise fail(f"layout.rooms.{name}", "expected [x0, y0, x1, y1] with x0 < x1 and y0 < y1")
+        inside(r, f"layout.rooms.{name}")
+        rooms[name] = r  # type: ignore[assignment]
+
+    def segments(key: str) -> tuple[Segment, ...]:
+        value = data.get(key, []) or []
+        if not isinstance(value, list):
+            raise fail(f"layout.{key}", f"expected a list of [x0, y0, x1, y1], got {value!r}")
+        out = []
+        for i, item in enumerate(value):
+            s = numbers(item, f"layout.{key}[{i}]", 4)
+            if s[0] != s[2] and s[1] != s[3]:
+                raise fail(f"layout.{key}[{i}]", "expected a horizontal or vertical segment")
+            if s[0] == s[2] and s[1] == s[3]:
+                raise fail(f"layout.{key}[{i}]", "is a point; expected a segment")
+            inside(s, f"layout.{key}[{i}]")
+            out.append(s)
+        return tuple(out)  # type: ignore[arg-type]
+
+    walls = segments("walls")
+    doors = segments("doors")
+    border = [(0.0, 0.0, w, 0.0), (w, 0.0, w, h), (0.0, h, w, h), (0.0, 0.0, 0.0, h)]
+    for i, d in enumerate(doors):
+        if not any(_on_segment(d, wall) for wall in [*border, *walls]):
+            raise fail(f"layout.doors[{i}]", "does not lie on a wall")
+
+    places: dict[str, Point2] = {}
+    for name, value in mapping(data["places"], "layout.places").items():
+        p = numbers(value, f"layout.places.{name}", 2)
+        inside(p, f"layout.places.{name}")
+        places[name] = p  # type: ignore[assignment]
+    if not places:
+        raise fail("layout.places", "is empty; expected at least one place")
+
+    objects: dict[str, str] = {}
+    for name, value in mapping(data.get("objects", {}) or {}, "layout.objects").items():
+        if value not in places:
+            raise fail(
+                f"layout.objects.{name}", f"unknown place {value!r}; expected one of {', '.join(places)}"
+            )
+        objects[name] = value
+
+    robot = data.get("robot", next(iter(places)))
+    if robot not in places:
+        raise fail("layout.robot", f"unknown place {robot!r}; expected one of {', '.join(places)}")
+
+    errands: dict[str, Errand] = {}
+    for name, value in mapping(data.get("errands", {}) or {}, "layout.errands").items():
+        path = f"layout.errands.{name}"
+        if name not in services:
+            raise fail(path, f"unknown service {name!r}")
+        if name not in interaction:
+            raise fail(path, f"{name} switches devices; only a service without `set` has an errand")
+        spec = mapping(value, path)
+        for key in spec:
+            if key not in _ERRAND_KEYS:
+                raise fail(f"{path}.{key}", f"unknown key; expected one of {', '.join(_ERRAND_KEYS)}")
+        kinds = [k for k in ("bring", "dock", "say") if k in spec]
+        if len(kinds) != 1:
+            raise fail(path, "expected exactly one of bring, dock or say")
+        if "bring" in spec and spec["bring"] not in objects:
+            raise fail(f"{path}.bring", f"unknown object {spec['bring']!r}; expected one of layout.objects")
+        if "dock" in spec and spec["dock"] not in places:
+            raise fail(f"{path}.dock", f"unknown place {spec['dock']!r}")
+        if "pour" in spec and (not isinstance(spec["pour"], bool) or "bring" not in spec):
+            raise fail(f"{path}.pour", "expected true or false, with bring")
+        if "say" in spec and not isinstance(spec["say"], str):
+            raise fail(f"{path}.say", "expected a string")
+        errands[name] = Errand(
+            bring=spec.get("bring"),
+            pour=bool(spec.get("pour", False)),
+            dock=spec.get("dock"),
+            say=spec.get("say"),
+        )
+
+    layout = Layout(
+        size=(w, h),
+        rooms=rooms,
+        walls=walls,
+        doors=doors,
+        places=places,
+        objects=objects,
+        robot=robot,
+        errands=errands,
+        device_rooms={d: room for d, (room, _) in devices.items() if room},
+    )
+    for name, p in places.items():
+        wall = layout.wall_near(p)
+        if wall is not None:
+            raise fail(f"layout.places.{name}", f"({p[0]:g}, {p[1]:g}) lies inside the wall {list(wall)}")
+    for device, (room, iot) in devices.items():
+        if not iot and device not in places and (room is None or room not in rooms):
+            raise fail(
+                "layout.places",
+                f"device {device!r} is switched by hand but has no place of its name"
+                + (f" and its room {room!r} is not in layout.rooms" if room else " and no room"),
+            )
+    return layout
