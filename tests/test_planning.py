@@ -247,3 +247,26 @@ def test_cli_plan_errors(capsys, args, message):
     assert captured.out == ""
     err = captured.err.strip()
     assert err.startswith("homecog: error:") and message in err and "\n" not in err
+
+
+def test_cli_simulate(capsys, tmp_path):
+    png = tmp_path / "run.png"
+    args = ["simulate", "--services", "SendDrinks,TurnOnLamp,ChargeItSelf", "--png", str(png), "--json"]
+    assert main(args) == 0
+    data = json.loads(capsys.readouterr().out)
+    assert {"actions", "seconds", "distance_m", "timeline", "devices", "png"} <= set(data)
+    assert data["png"] == str(png) and png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert data["actions"] == [t["action"] for t in data["timeline"]]
+    assert data["actions"][-1] == ["dock", "charger"]
+    assert data["devices"]["lamp"] == "on"
+    assert data["seconds"] == pytest.approx(data["timeline"][-1]["end"])
+    assert data["distance_m"] == pytest.approx(sum(t["distance_m"] for t in data["timeline"]))
+    # the robot drives from the charger to the dispenser and on: at least the straight lines
+    places = load_home("paper").layout.places
+    straight = sum(
+        ((places[a][0] - places[b][0]) ** 2 + (places[a][1] - places[b][1]) ** 2) ** 0.5
+        for a, b in [("charger", "dispenser"), ("dispenser", "table")]  # the user: the first location
+    )
+    assert data["distance_m"] > straight
+    assert main(["simulate", "--services", "CloseWindow", "--png", str(tmp_path)]) == 2
+    assert "is a directory" in capsys.readouterr().err

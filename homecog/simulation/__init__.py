@@ -1,0 +1,32 @@
+"""Simulation (SPEC §8): a differential-drive robot carries out a plan on the home's floor plan
+along collision-free A* paths, taking time for every action and switching devices; the
+trajectory is drawn like the paper's Fig. 15.
+
+>>> from homecog.home import load_home
+>>> from homecog.planning import plan_services
+>>> home = load_home("paper")
+>>> plan = plan_services(home, ["SendDrinks"], user="sofa")
+>>> result = simulate(home, plan.actions)
+>>> [row["action"][0] for row in result.timeline]
+['move', 'pick', 'pour', 'move', 'hand_over']
+>>> result.held is None and result.seconds > 13       # 13 s of work plus the driving
+True
+"""
+
+from __future__ import annotations
+
+from homecog.simulation.draw import draw_trajectory
+from homecog.simulation.grid import OccupancyGrid, occupancy_grid, plan_path
+from homecog.simulation.robot import DiffDrive
+from homecog.simulation.simulate import SimulationResult, action_seconds, simulate
+
+__all__ = [
+    "DiffDrive",
+    "OccupancyGrid",
+    "SimulationResult",
+    "action_seconds",
+    "draw_trajectory",
+    "occupancy_grid",
+    "plan_path",
+    "simulate",
+]
