@@ -270,3 +270,13 @@ def test_cli_simulate(capsys, tmp_path):
     assert data["distance_m"] > straight
     assert main(["simulate", "--services", "CloseWindow", "--png", str(tmp_path)]) == 2
     assert "is a directory" in capsys.readouterr().err
+
+
+def test_home_check_finds_a_place_the_robot_cannot_reach(capsys, tmp_path):
+    walled = tmp_path / "walled.yaml"
+    walled.write_text(STUDIO.read_text() + STUDIO_LAYOUT.replace("  doors: [[4, 1, 4, 2]]\n", ""))
+    assert main(["home", "check", str(walled)]) == 2
+    assert capsys.readouterr().err.strip() == "homecog: error: place 'kettle' cannot be reached from 'desk'"
+    doored = tmp_path / "doored.yaml"
+    doored.write_text(STUDIO.read_text() + STUDIO_LAYOUT)
+    assert main(["home", "check", str(doored)]) == 0

@@ -142,6 +142,15 @@ def home_check(
     from homecog.environment.core import Core, solvable_start_states
 
     h = load_home(file)
+    if h.layout is not None:  # every place the robot may be sent to must be reachable
+        from homecog.simulation import plan_path
+
+        targets = dict.fromkeys(h.layout.places)
+        for d in h.devices:
+            if not d.iot:
+                targets[h.layout.device_place(d.name)] = None
+        for target in targets:
+            plan_path(h.layout, h.layout.robot, target)
     summary = home_summary(h)
     solvable = solvable_start_states(Core(h).tables)
     stuck = int((~solvable).sum())
