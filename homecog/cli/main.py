@@ -646,6 +646,53 @@ def _initial_devices(h: Home, context: str | None) -> dict[str, bool]:
     return initial_state(h, space.context(parse_context(context, space))).devices
 
 
+# -- homecog up ---------------------------------------------------------------------------------
+LOCAL_HOSTS = ("127.0.0.1", "localhost", "::1")
+
+
+@app.command()
+def up(
+    home: HomeOption = "paper",
+    db: DbOption = None,
+    host: Annotated[
+        str, typer.Option(help="Address to serve on; any but 127.0.0.1 needs a token.")
+    ] = "127.0.0.1",
+    port: Annotated[int, typer.Option(help="Port to serve on.")] = 8000,
+    token: Annotated[
+        str | None,
+        typer.Option(help="Token for writes (default: none on 127.0.0.1, else generated and printed once)."),
+    ] = None,
+) -> None:
+    """Start the robot: train or reuse the Q table, build or reuse the tree, serve the HMI."""
+    import secrets
+
+    import uvicorn
+
+    from homecog.knowledge.pipeline import open_tree
+    from homecog.knowledge.store import Store, redact
+    from homecog.web.app import create_app
+    from homecog.web.runtime import ManualSource, Runtime
+
+    if not 0 < port < 65536:
+        raise UsageProblemError(f"--port must be 1 to 65535, got {port}")
+    if token is not None and len(token) < 8:
+        raise UsageProblemError("--token must be at least 8 characters")
+    h = load_home(home)
+    if host not in LOCAL_HOSTS and token is None:
+        token = secrets.token_urlsafe(24)
+        stdout.print(f"token for writes (shown once): {token}")
+    say = stdout.print
+    store = Store(db, h)
+    try:
+        tree = open_tree(h, store, progress=lambda m: say(m, style="dim"))
+        runtime = Runtime(home=h, store=store, tree=tree, source=ManualSource(h), token=token)
+        say(f"knowledge: {redact(store.url)} ({store.experience_count():,} experiences)", style="dim")
+        say(f"homecog is up: http://{host if ':' not in host else f'[{host}]'}:{port}")
+        uvicorn.run(create_app(runtime), host=host, port=port, log_level="warning")
+    finally:
+        store.close()
+
+
 # -- entry point -------------------------------------------------------------------------------
 def main(argv: list[str] | None = None) -> int:
     """Run the command line; errors become one line on stderr and exit status 2."""

@@ -1,0 +1,174 @@
+"""The running robot behind the web interface: the home, its knowledge, a context source, and
+what happened (corrections, agreement), shared by the HTTP routes.
+
+>>> from homecog.home import load_home
+>>> source = ManualSource(load_home("paper"))
+>>> source.snapshot()["window"], source.snapshot()["location"]
+('off', 'table')
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import json
+import threading
+import time
+from collections import deque
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+from homecog.context import ContextSource
+from homecog.errors import ContextError
+from homecog.home.model import Home, format_clock, format_number
+from homecog.knowledge.ihdr import IHDRTree
+from homecog.knowledge.space import Space, parse_services
+from homecog.knowledge.store import Store
+
+
+class ManualSource:
+    """A context set by hand (``PUT /api/context``); starts at each feature's first bin or value
+    (a numeric feature at the lower end of its first finite bin) with every device off."""
+
+    def __init__(self, home: Home) -> None:
+        self.home = home
+        values: dict[str, str] = {}
+        for f in home.features:
+            if f.kind == "categorical":
+                values[f.name] = f.values[0]
+            elif f.kind == "clock":
+                values[f.name] = format_clock(f.bins[0][0])  # type: ignore[index]
+            else:
+                low, high = f.bins[0]  # type: ignore[index]
+                values[f.name] = format_number(low if low > float("-inf") else high - 1)
+        values.update({d.name: "off" for d in home.devices})
+        self._values = values
+
+    def snapshot(self) -> dict[str, str]:
+        return dict(self._values)
+
+    def switch(self, device: str, on: bool) -> None:
+        if device not in self.home.device_names:
+            raise ContextError(f"unknown device {device!r}")
+        self._values[device] = "on" if on else "off"
+
+    def set_context(self, values: Mapping[str, object]) -> None:
+        self._values.update({k: str(v) for k, v in values.items()})
+
+
+@dataclass
+class Correction:
+    """One correction as the history shows it."""
+
+    at: float
+    user: str
+    context: dict[str, str]
+    want: list[str]
+    predicted: list[str]
+    added: list[str]
+    rejected: list[str]
+
+    @property
+    def agreed(self) -> bool:
+        return set(self.want) == set(self.predicted)
+
+
+@dataclass
+class Runtime:
+    """Everything the routes share. Cognition and corrections hold ``lock``: the tree is not
+    thread-safe and FastAPI runs plain route functions in a thread pool."""
+
+    home: Home
+    store: Store
+    tree: IHDRTree
+    source: ContextSource
+    token: str | None = None
+    lock: threading.RLock = field(default_factory=threading.RLock)
+    history: deque[Correction] = field(default_factory=lambda: deque(maxlen=500))
+    _subscribers: set[asyncio.Queue[str]] = field(default_factory=set)
+
+    def __post_init__(self) -> None:
+        self.space = Space(self.home)
+
+    # -- context ------------------------------------------------------------------------------
+    def context(self) -> dict[str, str]:
+        return self.source.snapshot()
+
+    def set_context(self, values: Mapping[str, object]) -> dict[str, str]:
+        """Manual mode: change some features or devices; the whole result must be valid."""
+        unknown = [k for k in values if k not in self.space.names]
+        if unknown:
+            raise ContextError(f"unknown feature or device {unknown[0]!r}")
+        merged = {**self.source.snapshot(), **{k: str(v) for k, v in values.items()}}
+        self.space.point(merged)  # raises ContextError naming what is wrong
+        setter = getattr(self.source, "set_context", None)
+        if setter is None:
+            raise ContextError("the context comes from the simulator or a broker; it cannot be set by hand")
+        setter(values)
+        self.publish("context", self.context())
+        return self.context()
+
+    # -- cognition and corrections -------------------------------------------------------------
+    def cognize(self, context: Mapping[str, object], user: str) -> dict[str, Any]:
+        point = self.space.point(context)
+        with self.lock:
+            return self.tree.explain_one(point, user=user).as_dict()
+
+    def correct(self, context: Mapping[str, object], want: list[str], user: str) -> dict[str, Any]:
+        point = self.space.point(context)
+        wanted = parse_services(want, self.home)
+        with self.lock:
+            predicted = self.tree.predict_one(point, user=user)
+            added, rejected = self.store.correct(self.tree, point, wanted, user)
+            experiences = self.store.experience_count()
+        correction = Correction(
+            at=time.time(),
+            user=user,
+            context=self.space.context(point),
+            want=wanted,
+            predicted=predicted,
+            added=added,
+            rejected=rejected,
+        )
+        self.history.append(correction)
+        self.publish("correction", {"user": user, "want": wanted, "added": added, "rejected": rejected})
+        return {"added": added, "rejected": rejected, "experiences": experiences, "user": user}
+
+    def agreement(self, user: str | None = None) -> list[dict[str, Any]]:
+        """Per correction in order: whether the robot had already proposed what the user wanted,
+        and the running rate of that agreement."""
+        out, agreed = [], 0
+        rows = [c for c in self.history if user is None or c.user == user]
+        for i, c in enumerate(rows, start=1):
+            agreed += c.agreed
+            out.append({"n": i, "user": c.user, "agreed": c.agreed, "rate": agreed / i})
+        return out
+
+    # -- the live event stream -----------------------------------------------------------------
+    def subscribe(self) -> asyncio.Queue[str]:
+        """A queue of server-sent events; call from the event loop."""
+        self._loop = asyncio.get_running_loop()
+        queue: asyncio.Queue[str] = asyncio.Queue(maxsize=100)
+        self._subscribers.add(queue)
+        return queue
+
+    def unsubscribe(self, queue: asyncio.Queue[str]) -> None:
+        self._subscribers.discard(queue)
+
+    def publish(self, kind: str, data: object) -> None:
+        """Send an event to every open stream, from any thread (a slow reader loses old events,
+        not the server)."""
+        loop = getattr(self, "_loop", None)
+        if loop is None or loop.is_closed() or not self._subscribers:
+            return
+        message = f"event: {kind}\ndata: {json.dumps(data)}\n\n"
+        loop.call_soon_threadsafe(self._deliver, message)
+
+    def _deliver(self, message: str) -> None:
+        for queue in list(self._subscribers):
+            if queue.full():
+                with contextlib.suppress(asyncio.QueueEmpty):
+                    queue.get_nowait()
+            with contextlib.suppress(asyncio.QueueFull):
+                queue.put_nowait(message)

@@ -1,0 +1,153 @@
+"""The HTTP API (SPEC §10): answers, corrections per user, the token, bad input as 4xx."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+from fastapi.testclient import TestClient
+
+from homecog.home import load_home_text
+from homecog.knowledge.pipeline import build
+from homecog.knowledge.store import Store
+from homecog.web.app import MAX_BODY, create_app
+from homecog.web.runtime import ManualSource, Runtime
+
+STUDIO = Path(__file__).parent / "homes" / "studio.yaml"
+LAYOUT = """
+layout:
+  size: [6, 4]
+  rooms: {studio: [0, 0, 4, 4], bath: [4, 0, 6, 4]}
+  walls: [[4, 0, 4, 4]]
+  doors: [[4, 1, 4, 2]]
+  places: {desk: [1, 1], couch: [3, 3], kettle: [5, 3]}
+  objects: {tea: kettle}
+"""
+WORK = {
+    "time": "10:00",
+    "light": "50",
+    "activity": "work",
+    "blind": "off",
+    "desk_lamp": "off",
+    "radio": "off",
+}
+
+
+@pytest.fixture(scope="module")
+def built(tmp_path_factory):
+    home = load_home_text(STUDIO.read_text() + LAYOUT, "studio.yaml")
+    url = f"sqlite:///{tmp_path_factory.mktemp('web') / 'knowledge.sqlite'}"
+    store = Store(url, home)
+    tree = build(home, store).tree
+    yield home, store, tree
+    store.close()
+
+
+@pytest.fixture
+def runtime(built):
+    home, store, _ = built
+    # a fresh copy of the stored tree per test; corrections of earlier tests are in the store
+    return Runtime(home=home, store=store, tree=store.load_tree(), source=ManualSource(home))
+
+
+@pytest.fixture
+def client(runtime):
+    return TestClient(create_app(runtime))
+
+
+def test_home_and_context(client, runtime):
+    home = client.get("/api/home").json()
+    assert [f["name"] for f in home["features"]] == ["time", "light", "activity"]
+    assert [s["name"] for s in home["services"]] == list(runtime.home.service_names)
+    assert client.get("/api/context").json() == runtime.source.snapshot()
+    r = client.put("/api/context", json={"values": {"activity": "relax", "radio": "on"}})
+    assert r.status_code == 200 and r.json()["activity"] == "relax" and r.json()["radio"] == "on"
+    assert client.get("/api/context").json()["radio"] == "on"
+
+
+def test_cognize_answers_as_the_tree(client, runtime):
+    r = client.post("/api/cognize", json={"context": WORK, "user": "kim"})
+    assert r.status_code == 200
+    data = r.json()
+    assert data["services"] == runtime.tree.predict_one(runtime.space.point(WORK))
+    assert set(data["services"]) == {"RaiseBlind", "LampOn", "BringTea"}
+    assert data["unknown"] is False
+    assert [e["service"] for e in data["explanations"]] == data["services"]
+
+
+def test_a_correction_changes_that_users_answers_only(client):
+    before = client.post("/api/cognize", json={"context": WORK, "user": "kim"}).json()["services"]
+    want = ["LampOn", "RadioOn"]
+    r = client.post("/api/corrections", json={"context": WORK, "want": want, "user": "kim"})
+    assert r.status_code == 200
+    assert set(r.json()["added"]) == {"RadioOn"} and set(r.json()["rejected"]) == set(before) - set(want)
+    assert set(client.post("/api/cognize", json={"context": WORK, "user": "kim"}).json()["services"]) == set(
+        want
+    )
+    assert client.post("/api/cognize", json={"context": WORK, "user": "lee"}).json()["services"] == before
+    history = client.get("/api/history", params={"user": "kim"}).json()
+    assert history["corrections"][-1]["want"] == want and history["corrections"][-1]["agreed"] is False
+    client.post("/api/corrections", json={"context": WORK, "want": want, "user": "kim"})
+    agreement = client.get("/api/history", params={"user": "kim"}).json()["agreement"]
+    assert [a["agreed"] for a in agreement][-2:] == [False, True]
+    assert agreement[-1]["rate"] == pytest.approx(sum(a["agreed"] for a in agreement) / len(agreement))
+
+
+def test_plan(client):
+    r = client.post("/api/plan", json={"services": ["BringTea"], "context": WORK})
+    assert r.status_code == 200
+    assert r.json()["actions"] == [["move", "desk", "desk"], ["speak", "bring tea"]]  # no errand: speak
+    assert client.post("/api/plan", json={"services": ["Fly"]}).status_code == 422
+
+
+@pytest.mark.parametrize(
+    ("body", "message"),
+    [
+        ({"context": {**WORK, "mood": "good"}}, "mood"),
+        ({"context": {**WORK, "activity": "dance"}}, "dance"),
+        ({"context": {k: v for k, v in WORK.items() if k != "radio"}}, "radio"),
+        ({"context": {**WORK, "time": "25:00"}}, "25:00"),
+        ({"context": {**WORK, "light": "bright"}}, "bright"),
+        ({"context": WORK, "user": ""}, "user"),
+        ({"context": WORK, "extra": 1}, "extra"),
+        ({}, "context"),
+    ],
+)
+def test_bad_cognize_input_is_a_422_naming_it(client, body, message):
+    r = client.post("/api/cognize", json=body)
+    assert r.status_code == 422
+    assert message in str(r.json()["detail"])
+
+
+def test_bad_input_stores_nothing(client, runtime):
+    count = runtime.store.experience_count()
+    r = client.post("/api/corrections", json={"context": WORK, "want": ["Fly"], "user": "kim"})
+    assert r.status_code == 422 and "unknown service 'Fly'" in r.json()["detail"]
+    r = client.post("/api/corrections", content=b"{not json", headers={"content-type": "application/json"})
+    assert r.status_code == 422
+    r = client.post(
+        "/api/corrections", content=b"x" * (MAX_BODY + 1), headers={"content-type": "application/json"}
+    )
+    assert r.status_code == 413 and "64 KiB" in r.json()["detail"]
+    r = client.put("/api/context", json={"values": {"activity": "dance"}})
+    assert r.status_code == 422 and "dance" in r.json()["detail"]
+    assert client.get("/api/context").json()["activity"] != "dance"
+    assert runtime.store.experience_count() == count
+
+
+def test_writes_need_the_token_when_one_is_set(runtime):
+    runtime.token = "s3cret"
+    client = TestClient(create_app(runtime))
+    count = runtime.store.experience_count()
+    body = {"context": WORK, "want": ["LampOn"], "user": "kim"}
+    r = client.post("/api/corrections", json=body)
+    assert r.status_code == 401 and "token" in r.json()["detail"]
+    assert (
+        client.post("/api/corrections", json=body, headers={"Authorization": "Bearer wrong"}).status_code
+        == 401
+    )
+    assert client.put("/api/context", json={"values": {"radio": "on"}}).status_code == 401
+    assert runtime.store.experience_count() == count
+    assert client.post("/api/cognize", json={"context": WORK}).status_code == 200  # reads stay open
+    ok = client.post("/api/corrections", json=body, headers={"Authorization": "Bearer s3cret"})
+    assert ok.status_code == 200 and runtime.store.experience_count() == count + 1
