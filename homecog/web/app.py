@@ -21,10 +21,11 @@ from __future__ import annotations
 import asyncio
 import hmac
 from collections.abc import AsyncIterator, Awaitable, Callable
+from pathlib import Path
 from typing import Annotated, Any
 
 from fastapi import Depends, FastAPI, Header, HTTPException, Request
-from fastapi.responses import JSONResponse, StreamingResponse
+from fastapi.responses import HTMLResponse, JSONResponse, StreamingResponse
 from pydantic import BaseModel, ConfigDict, Field
 
 from homecog.errors import HomecogError
@@ -92,6 +93,14 @@ def create_app(runtime: Runtime) -> FastAPI:
             raise HTTPException(
                 401, detail="this server needs a token for writes: Authorization: Bearer <token>"
             )
+
+    page = (Path(__file__).parent / "static" / "index.html").read_text(encoding="utf-8")
+
+    @app.get("/", response_class=HTMLResponse, include_in_schema=False)
+    def index() -> str:
+        """The HMI: the home now, the robot's services and why, the user's services, the plan,
+        the corrections; one page that works on a phone."""
+        return page
 
     @app.get("/api/home")
     def get_home() -> dict[str, Any]:

@@ -1,0 +1,108 @@
+"""The HMI in a real browser: Debian's chromium, headless, driven by Playwright (SPEC §10)."""
+
+from __future__ import annotations
+
+import shutil
+import socket
+import threading
+import time
+from pathlib import Path
+
+import pytest
+
+from homecog.home import load_home_text
+from homecog.knowledge.pipeline import build
+from homecog.knowledge.store import Store
+from homecog.web.app import create_app
+from homecog.web.runtime import ManualSource, Runtime
+
+STUDIO = Path(__file__).parent / "homes" / "studio.yaml"
+LAYOUT = """
+layout:
+  size: [6, 4]
+  rooms: {studio: [0, 0, 4, 4], bath: [4, 0, 6, 4]}
+  walls: [[4, 0, 4, 4]]
+  doors: [[4, 1, 4, 2]]
+  places: {desk: [1, 1], couch: [3, 3], kettle: [5, 3]}
+  objects: {tea: kettle}
+"""
+CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
+SCREENSHOT = Path(__file__).parent.parent / "docs" / "hmi.png"
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+@pytest.fixture(scope="module")
+def server(tmp_path_factory):
+    if CHROMIUM is None:
+        pytest.skip("no chromium on this machine (Debian package chromium; .ci/run installs it)")
+    pytest.importorskip("playwright.sync_api", reason="playwright is not installed")
+    import uvicorn
+
+    home = load_home_text(STUDIO.read_text() + LAYOUT, "studio.yaml")
+    store = Store(f"sqlite:///{tmp_path_factory.mktemp('hmi') / 'knowledge.sqlite'}", home)
+    tree = build(home, store).tree
+    runtime = Runtime(home=home, store=store, tree=tree, source=ManualSource(home))
+    runtime.set_context({"time": "10:00", "light": "50", "activity": "work"})
+    port = _free_port()
+    config = uvicorn.Config(
+        create_app(runtime), host="127.0.0.1", port=port, log_level="warning", timeout_graceful_shutdown=1
+    )
+    uv = uvicorn.Server(config)
+    thread = threading.Thread(target=uv.run, daemon=True)
+    thread.start()
+    deadline = time.monotonic() + 20
+    while not uv.started:
+        assert time.monotonic() < deadline, "the server did not start"
+        time.sleep(0.05)
+    yield f"http://127.0.0.1:{port}", runtime
+    uv.should_exit = True
+    thread.join(timeout=10)
+    store.close()
+
+
+def test_the_page_shows_live_context_and_takes_a_correction(server):
+    from playwright.sync_api import expect, sync_playwright
+
+    url, runtime = server
+    with sync_playwright() as p:
+        browser = p.chromium.launch(executable_path=CHROMIUM, headless=True, args=["--no-sandbox"])
+        page = browser.new_page(viewport={"width": 390, "height": 1200})  # a phone's width
+        page.goto(url)
+        expect(page.locator("#home-name")).to_have_text("studio")
+        expect(page.locator('#context td[data-name="activity"]')).to_have_text("work")
+        services = page.locator("#services li")
+        expect(services.first).to_have_attribute("data-service", "RaiseBlind")
+        before = services.evaluate_all("els => els.map(e => e.dataset.service)")
+        assert set(before) == {"RaiseBlind", "LampOn", "BringTea"}
+        expect(page.locator("#status")).to_have_text("live")
+
+        # the home changes (as the simulator or a broker would): the page follows, live
+        runtime.set_context({"activity": "relax"})
+        expect(page.locator('#context td[data-name="activity"]')).to_have_text("relax")
+        runtime.set_context({"activity": "work"})
+        expect(page.locator('#context td[data-name="activity"]')).to_have_text("work")
+        expect(services.first).to_have_attribute("data-service", "RaiseBlind")
+
+        # the user says what they want from the list: the robot's services change at once
+        done = int(page.evaluate("document.body.dataset.cognitions"))
+        page.fill("#user", "kim")
+        page.locator("#user").press("Enter")  # a native change event: blurring later fires none
+        page.wait_for_function(f"+document.body.dataset.cognitions > {done}")
+        for name in ("RaiseBlind", "BringTea"):
+            page.locator(f'#choices input[value="{name}"]').uncheck()
+        page.locator('#choices input[value="RadioOn"]').check()
+        page.click("#correction button")
+        expect(page.locator("#corrected")).to_contain_text("learned: +RadioOn")
+        expect(page.locator('#services li[data-service="RadioOn"]')).to_have_count(1)
+        after = services.evaluate_all("els => els.map(e => e.dataset.service)")
+        assert set(after) == {"LampOn", "RadioOn"}
+        expect(page.locator("#agreement")).to_contain_text("1 corrections by kim")
+        SCREENSHOT.parent.mkdir(exist_ok=True)
+        page.screenshot(path=str(SCREENSHOT), full_page=True)
+        browser.close()
+    assert SCREENSHOT.stat().st_size > 10_000
