@@ -151,3 +151,20 @@ def test_writes_need_the_token_when_one_is_set(runtime):
     assert client.post("/api/cognize", json={"context": WORK}).status_code == 200  # reads stay open
     ok = client.post("/api/corrections", json=body, headers={"Authorization": "Bearer s3cret"})
     assert ok.status_code == 200 and runtime.store.experience_count() == count + 1
+
+
+def test_the_simulated_home_lives_and_the_robot_acts(built):
+    from homecog.context.simulated import SimulatedHome
+
+    home, store, _ = built
+    source = SimulatedHome(home, speed=60, start="2021-06-21 09:00")
+    rt = Runtime(home=home, store=store, tree=store.load_tree(), source=source)
+    assert rt.tick(600, act=False) is True  # ten simulated minutes pass
+    assert rt.context()["time"] == "09:10"
+    proposed = rt.tree.predict_one(rt.space.point(rt.context()))
+    switched = {d: on for s in proposed for d, on in home.services[home.service_index(s)].sets}
+    assert set(switched) & {d.name for d in home.devices if d.iot}, "nothing to switch by IoT at 09:10"
+    rt.tick(0)  # no time passes; the robot carries out its IoT switches
+    iot = {d.name for d in home.devices if d.iot}
+    for device, on in switched.items():
+        assert rt.context()[device] == ("on" if on else "off") or device not in iot

@@ -662,12 +662,16 @@ def up(
         str | None,
         typer.Option(help="Token for writes (default: none on 127.0.0.1, else generated and printed once)."),
     ] = None,
+    speed: Annotated[
+        float, typer.Option(help="Simulated seconds per real second of the simulated home (0: manual).")
+    ] = 60.0,
 ) -> None:
     """Start the robot: train or reuse the Q table, build or reuse the tree, serve the HMI."""
     import secrets
 
     import uvicorn
 
+    from homecog.context.simulated import SimulatedHome
     from homecog.knowledge.pipeline import open_tree
     from homecog.knowledge.store import Store, redact
     from homecog.web.app import create_app
@@ -675,6 +679,8 @@ def up(
 
     if not 0 < port < 65536:
         raise UsageProblemError(f"--port must be 1 to 65535, got {port}")
+    if not 0 <= speed <= 100_000:
+        raise UsageProblemError(f"--speed must be 0 to 100000, got {speed:g}")
     if token is not None and len(token) < 8:
         raise UsageProblemError("--token must be at least 8 characters")
     h = load_home(home)
@@ -685,10 +691,11 @@ def up(
     store = Store(db, h)
     try:
         tree = open_tree(h, store, progress=lambda m: say(m, style="dim"))
-        runtime = Runtime(home=h, store=store, tree=tree, source=ManualSource(h), token=token)
+        source = SimulatedHome(h, speed=speed) if speed > 0 else ManualSource(h)
+        runtime = Runtime(home=h, store=store, tree=tree, source=source, token=token)
         say(f"knowledge: {redact(store.url)} ({store.experience_count():,} experiences)", style="dim")
         say(f"homecog is up: http://{host if ':' not in host else f'[{host}]'}:{port}")
-        uvicorn.run(create_app(runtime), host=host, port=port, log_level="warning")
+        uvicorn.run(create_app(runtime, speed=speed or None), host=host, port=port, log_level="warning")
     finally:
         store.close()
 

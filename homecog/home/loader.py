@@ -27,6 +27,7 @@ from typing import Any
 
 import yaml
 
+from homecog.context.routine import parse_routine
 from homecog.errors import HomeFileError
 from homecog.home.layout import parse_layout
 from homecog.home.model import (
@@ -271,7 +272,7 @@ class _Validator:
             prohibited=prohibited,
             rewards=rewards,
             layout=layout,
-            routine=data.get("routine"),
+            routine=parse_routine(data.get("routine"), features, devices, self.fail),
             description=description,
             source=self.source,
         )

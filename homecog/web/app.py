@@ -20,7 +20,10 @@ from __future__ import annotations
 
 import asyncio
 import hmac
+import logging
+import time
 from collections.abc import AsyncIterator, Awaitable, Callable
+from contextlib import asynccontextmanager
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -56,12 +59,22 @@ class ContextIn(BaseModel):
     values: dict[str, Value] = Field(description="Features or devices to change.")
 
 
-def create_app(runtime: Runtime) -> FastAPI:
-    """The FastAPI application serving ``runtime``."""
+def create_app(runtime: Runtime, *, speed: float | None = None) -> FastAPI:
+    """The FastAPI application serving ``runtime``; with ``speed``, a simulated source lives
+    that many simulated seconds per real second, and the robot acts on what it proposes."""
+
+    @asynccontextmanager
+    async def lifespan(app: FastAPI) -> AsyncIterator[None]:
+        task = asyncio.create_task(_live(runtime, speed)) if speed else None
+        yield
+        if task is not None:
+            task.cancel()
+
     app = FastAPI(
         title="homecog",
         summary="Service cognition for a home service robot",
         version="0.1.0",
+        lifespan=lifespan,
     )
     app.state.runtime = runtime
 
@@ -177,6 +190,19 @@ def create_app(runtime: Runtime) -> FastAPI:
         return StreamingResponse(stream(), media_type="text/event-stream")
 
     return app
+
+
+async def _live(runtime: Runtime, speed: float, period: float = 1.0) -> None:
+    """Advance the simulated home with the real clock; a failing tick is logged, not fatal."""
+    last = time.monotonic()
+    while True:
+        await asyncio.sleep(period)
+        now = time.monotonic()
+        try:
+            await asyncio.to_thread(runtime.tick, (now - last) * speed)
+        except Exception:  # the server stays up whatever the simulation does
+            logging.getLogger("homecog.web").exception("the simulated home failed a tick")
+        last = now
 
 
 def _json(data: object) -> str:

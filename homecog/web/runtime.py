@@ -145,6 +145,28 @@ class Runtime:
             out.append({"n": i, "user": c.user, "agreed": c.agreed, "rate": agreed / i})
         return out
 
+    # -- the living home ------------------------------------------------------------------------
+    def tick(self, seconds: float, *, act: bool = True, user: str = "default") -> bool:
+        """Let a simulated source live ``seconds`` of simulated time; then, if ``act``, the robot
+        carries out the IoT switches of the services it proposes there. True if the context changed."""
+        advance = getattr(self.source, "advance", None)
+        before = self.source.snapshot()
+        if advance is not None:
+            advance(seconds)
+        if act:
+            point = self.space.point(self.source.snapshot())
+            with self.lock:
+                proposed = self.tree.predict_one(point, user=user)
+            iot = {d.name for d in self.home.devices if d.iot}
+            for name in proposed:
+                for device, on in self.home.services[self.home.service_index(name)].sets:
+                    if device in iot:
+                        self.source.switch(device, on)
+        after = self.source.snapshot()
+        if after != before:
+            self.publish("context", after)
+        return after != before
+
     # -- the live event stream -----------------------------------------------------------------
     def subscribe(self) -> asyncio.Queue[str]:
         """A queue of server-sent events; call from the event loop."""

@@ -1,0 +1,205 @@
+"""A simulated home that lives through days at an accelerated clock (SPEC §10).
+
+The user follows the home's routine (:mod:`homecog.context.routine`): where they are and what
+they do comes from the step that holds, and the devices a step ``set`` s are switched when it
+starts. Temperature and illumination come from a typical year of real weather and the devices
+(:mod:`homecog.context.weather`). Devices keep their state until the robot (:meth:`switch`) or
+the user switches them. Nothing runs by itself: the caller moves the clock with
+:meth:`SimulatedHome.advance` (the web server calls ``advance(real_elapsed * speed)``), so a
+test can step through a day deterministically.
+
+>>> from homecog.home import load_home
+>>> sim = SimulatedHome(load_home("paper"), start="2021-06-17 07:00")
+>>> s = sim.snapshot()
+>>> s["time"], s["location"], s["posture"], s["behavior"], s["temperature"]   # file: 19.4 °C
+('07:00', 'bed', 'lie', 'sleep', '19.3')
+>>> sim.advance(40 * 60)                 # 40 simulated minutes: breakfast
+>>> sim.snapshot()["behavior"], sim.snapshot()["ceiling_light"]
+('eat', 'on')
+>>> sim.switch("ceiling_light", False)   # the robot's IoT command
+>>> sim.snapshot()["ceiling_light"]
+'off'
+>>> sim.set_context({"behavior": "read"}); sim.snapshot()["behavior"]
+'read'
+>>> sim.resume(); sim.snapshot()["behavior"]
+'eat'
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from datetime import datetime, timedelta
+
+import numpy as np
+
+from homecog.context.routine import Routine, Step, default_routine
+from homecog.context.weather import Weather, clamp, numeric_readings
+from homecog.errors import ContextError
+from homecog.home.model import Home, format_clock, format_number, parse_state
+
+DEFAULT_START = "2021-06-21 06:00"  # midsummer: warm days, cool nights, long daylight
+TEMPERATURE_NOISE = 0.2  # °C, standard deviation of the thermometer
+ILLUMINATION_NOISE = 0.02  # relative standard deviation of the light sensor
+
+
+def _parse_start(start: datetime | str) -> datetime:
+    if isinstance(start, datetime):
+        return start.replace(tzinfo=None)
+    try:
+        return datetime.fromisoformat(str(start).strip())
+    except ValueError:
+        raise ContextError(
+            f"start: not a date and time: {start!r}; expected e.g. {DEFAULT_START!r}"
+        ) from None
+
+
+class SimulatedHome:
+    """A home whose user lives the routine under typical-year weather.
+
+    Parameters
+    ----------
+    home
+        The home; its ``routine`` (or :func:`default_routine`) drives the user.
+    speed
+        Simulated seconds per real second, for callers that follow a wall clock.
+    start
+        The simulated date and time to start at (local standard time of the weather file).
+    seed
+        Seeds the sensor noise on temperature and illumination; same seed, same snapshots.
+    """
+
+    def __init__(
+        self, home: Home, *, speed: float = 60.0, start: datetime | str = DEFAULT_START, seed: int = 0
+    ) -> None:
+        self.home = home
+        self.speed = speed
+        self.start = start
+        self.seed = seed
+        routine = home.routine
+        self._routine: Routine = routine if isinstance(routine, Routine) else default_routine(home.features)
+        self._now = _parse_start(start)
+        self._weather = Weather()
+        self._overrides: dict[str, str] = {}
+        self._states = dict.fromkeys(home.device_names, False)
+        # the devices as the user left them over the day before the start
+        steps = self._routine.steps
+        current = self._routine.index_at(self._hours)
+        for k in range(current + 1, current + 1 + len(steps)):
+            self._apply(steps[k % len(steps)])
+
+    # -- the clock -------------------------------------------------------------------
+    @property
+    def now(self) -> datetime:
+        """The simulated date and time."""
+        return self._now
+
+    @property
+    def _hours(self) -> float:
+        t = self._now
+        return t.hour + t.minute / 60 + (t.second + t.microsecond / 1e6) / 3600
+
+    @property
+    def step(self) -> Step:
+        """The routine step that holds now."""
+        return self._routine.step_at(self._hours)
+
+    def advance(self, seconds: float) -> None:
+        """Move the clock ``seconds`` simulated seconds on; steps that start on the way switch
+        their devices, in order."""
+        if seconds < 0:
+            raise ValueError(f"cannot advance by {seconds} seconds; time only moves forward")
+        end = self._now + timedelta(seconds=seconds)
+        steps = self._routine.steps
+        while True:
+            k = (self._routine.index_at(self._hours) + 1) % len(steps)
+            midnight = self._now.replace(hour=0, minute=0, second=0, microsecond=0)
+            boundary = midnight + timedelta(seconds=round(steps[k].at * 3600))
+            if boundary <= self._now:  # the next step starts tomorrow
+                boundary += timedelta(days=1)
+            if boundary > end:
+                break
+            self._now = boundary
+            self._apply(steps[k])
+        self._now = end
+
+    def _apply(self, step: Step) -> None:
+        for device, on in step.sets.items():
+            self._states[device] = on
+
+    # -- the protocol ----------------------------------------------------------------
+    def snapshot(self) -> dict[str, str]:
+        """Every feature and device as text, as a scenario file or ``--context`` takes them."""
+        values = self._routine.values_at(self._hours)
+        numbers = numeric_readings(self.home, self._now, self._states, self._weather)
+        minute = self._now.toordinal() * 1440 + self._now.hour * 60 + self._now.minute
+        noise = np.random.default_rng([self.seed, minute]).standard_normal(len(self.home.features))
+        out: dict[str, str] = {}
+        for i, f in enumerate(self.home.features):
+            if f.name in self._overrides:
+                out[f.name] = self._overrides[f.name]
+            elif f.kind == "clock":
+                out[f.name] = f"{self._now.hour:02d}:{self._now.minute:02d}"
+            elif f.kind == "categorical":
+                out[f.name] = values[f.name]
+            else:
+                x = numbers[f.name]
+                if (f.unit or "").strip().lower() in ("lx", "lux") or f.name in ("illumination", "light"):
+                    x = round(clamp(f, x * (1 + ILLUMINATION_NOISE * noise[i])))
+                else:
+                    x = round(clamp(f, x + TEMPERATURE_NOISE * noise[i]), 1)
+                out[f.name] = format_number(clamp(f, x))
+        for device, on in self._states.items():
+            out[device] = "on" if on else "off"
+        return out
+
+    def switch(self, device: str, on: bool) -> None:
+        """The robot's IoT command: switch ``device`` on or off."""
+        if device not in self._states:
+            raise ContextError(
+                f"unknown device {device!r}; expected one of {', '.join(self.home.device_names)}"
+            )
+        self._states[device] = bool(on)
+
+    # -- manual mode -----------------------------------------------------------------
+    @property
+    def manual(self) -> bool:
+        """True while :meth:`set_context` overrides some feature."""
+        return bool(self._overrides)
+
+    def set_context(self, values: Mapping[str, object]) -> None:
+        """Set features and devices by hand: features hold the given value until
+        :meth:`resume`; devices are switched (and then keep their state as usual).
+
+        Checks everything before changing anything; raises :class:`ContextError` naming an
+        unknown name or a value that fits no bin.
+        """
+        features = {f.name: f for f in self.home.features}
+        overrides: dict[str, str] = {}
+        states: dict[str, bool] = {}
+        for name, value in values.items():
+            if name in self._states:
+                states[name] = parse_state(value, name)
+            elif name in features:
+                f = features[name]
+                f.discretize(value)  # raises ContextError naming the value and the valid range
+                reading = f.parse(value)
+                if f.kind == "clock":
+                    overrides[name] = format_clock(float(reading))
+                elif f.kind == "numeric":
+                    overrides[name] = format_number(float(reading))
+                else:
+                    overrides[name] = str(reading)
+            else:
+                raise ContextError(
+                    f"unknown feature or device {name!r}; expected "
+                    f"{', '.join(self.home.feature_names + self.home.device_names)}"
+                )
+        self._overrides.update(overrides)
+        self._states.update(states)
+
+    def resume(self) -> None:
+        """Leave manual mode: the features follow the routine, the clock and the weather again."""
+        self._overrides.clear()
+
+    def __repr__(self) -> str:
+        return f"SimulatedHome({self.home.name!r}, now={self._now.isoformat(sep=' ')}, speed={self.speed})"
