@@ -1,17 +1,20 @@
 #!/usr/bin/env bash
-# Make PostgreSQL and MariaDB answer on 127.0.0.1 as tests/servers.py expects them:
+# Make PostgreSQL and MariaDB answer on 127.0.0.1 as tests/servers.py expects them, and a
+# Mosquitto MQTT broker as tests/test_mqtt.py expects it:
 #   postgresql+psycopg://postgres@127.0.0.1:5432/test   (user postgres, trust on 127.0.0.1)
 #   mysql+pymysql://root@127.0.0.1:3306/test           (user root, no password)
+#   mqtt://127.0.0.1:1883                               (anonymous)
 # A server that already answers is left alone. One that does not is started if installed, or
 # installed with apt-get (Debian/Ubuntu), configured and started. Nothing here fails CI: a
 # server that cannot be had is reported, and the tests that need it skip, saying why.
 #
-# HOMECOG_TEST_POSTGRES_URL / HOMECOG_TEST_MARIADB_URL (a server elsewhere) skip that server;
-# HOMECOG_CI_SERVERS=0 skips both. HOMECOG_CI_WAIT: seconds to wait for a server (default 60).
+# HOMECOG_TEST_POSTGRES_URL / HOMECOG_TEST_MARIADB_URL / HOMECOG_TEST_MQTT_URL (a server
+# elsewhere) skip that server; HOMECOG_CI_SERVERS=0 skips them all. HOMECOG_CI_WAIT: seconds to wait for a server (default 60).
 set -uo pipefail
 
 PG_PORT="${HOMECOG_CI_PG_PORT:-5432}"
 MY_PORT="${HOMECOG_CI_MARIADB_PORT:-3306}"
+MQTT_PORT="${HOMECOG_CI_MQTT_PORT:-1883}"
 WAIT="${HOMECOG_CI_WAIT:-60}"
 export DEBIAN_FRONTEND=noninteractive PGCONNECT_TIMEOUT=5
 
@@ -201,10 +204,36 @@ mariadb_() {
     say "mariadb: ready (root@127.0.0.1:$MY_PORT/test)"
 }
 
+# -- Mosquitto ----------------------------------------------------------------------------------
+mosquitto_bin() { command -v mosquitto || { [ -x /usr/sbin/mosquitto ] && echo /usr/sbin/mosquitto; }; }
+
+mosquitto_() {
+    if [ -n "${HOMECOG_TEST_MQTT_URL:-}" ]; then
+        say "mosquitto: tests use \$HOMECOG_TEST_MQTT_URL; nothing to do"
+        return 0
+    fi
+    if port_open "$MQTT_PORT"; then
+        say "mosquitto: answering on 127.0.0.1:$MQTT_PORT"
+        return 0
+    fi
+    if [ -z "$(mosquitto_bin)" ]; then
+        say "mosquitto: not installed"
+        apt_install mosquitto || return 1
+    fi
+    # our own configuration: the package's may listen elsewhere or want a password
+    local conf="${TMPDIR:-/tmp}/homecog-ci-mosquitto.conf"
+    printf 'listener %s 127.0.0.1\nallow_anonymous true\npersistence false\n' "$MQTT_PORT" >"$conf"
+    say "mosquitto: starting $(mosquitto_bin) -c $conf -d"
+    "$(mosquitto_bin)" -c "$conf" -d || { say "mosquitto: could not start it"; return 1; }
+    wait_for "mosquitto" port_open "$MQTT_PORT" || return 1
+    say "mosquitto: ready (mqtt://127.0.0.1:$MQTT_PORT)"
+}
+
 if [ "${HOMECOG_CI_SERVERS:-1}" = 0 ]; then
-    say "HOMECOG_CI_SERVERS=0: not touching database servers; their tests will skip"
+    say "HOMECOG_CI_SERVERS=0: not touching database or MQTT servers; their tests will skip"
     exit 0
 fi
 postgres || say "postgresql: unavailable; its tests will skip"
 mariadb_ || say "mariadb: unavailable; its tests will skip"
+mosquitto_ || say "mosquitto: unavailable; the MQTT tests will skip"
 exit 0

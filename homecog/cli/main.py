@@ -665,6 +665,12 @@ def up(
     speed: Annotated[
         float, typer.Option(help="Simulated seconds per real second of the simulated home (0: manual).")
     ] = 60.0,
+    mqtt: Annotated[
+        str | None,
+        typer.Option(
+            help="Take the context from this MQTT broker (mqtt://host:1883) instead of the simulator."
+        ),
+    ] = None,
 ) -> None:
     """Start the robot: train or reuse the Q table, build or reuse the tree, serve the HMI."""
     import secrets
@@ -691,11 +697,21 @@ def up(
     store = Store(db, h)
     try:
         tree = open_tree(h, store, progress=lambda m: say(m, style="dim"))
-        source = SimulatedHome(h, speed=speed) if speed > 0 else ManualSource(h)
+        source: Any = SimulatedHome(h, speed=speed) if speed > 0 else ManualSource(h)
+        if mqtt is not None:
+            from homecog.context.mqtt import MqttSource
+
+            source = MqttSource(h, mqtt, on_change=lambda snapshot: runtime.publish("context", snapshot))
+            source.start()
+            say(
+                f"context from {mqtt}: topics homecog/{h.name}/state/<name>, "
+                f"commands to homecog/{h.name}/command/<device>"
+            )
         runtime = Runtime(home=h, store=store, tree=tree, source=source, token=token)
         say(f"knowledge: {redact(store.url)} ({store.experience_count():,} experiences)", style="dim")
         say(f"homecog is up: http://{host if ':' not in host else f'[{host}]'}:{port}")
-        uvicorn.run(create_app(runtime, speed=speed or None), host=host, port=port, log_level="warning")
+        live = (speed or None) if mqtt is None else 1.0  # with a broker the clock is the home's own
+        uvicorn.run(create_app(runtime, speed=live), host=host, port=port, log_level="warning")
     finally:
         store.close()
 

@@ -87,6 +87,7 @@ class Runtime:
     lock: threading.RLock = field(default_factory=threading.RLock)
     history: deque[Correction] = field(default_factory=lambda: deque(maxlen=500))
     _subscribers: set[asyncio.Queue[str]] = field(default_factory=set)
+    _sent: dict[str, tuple[dict[str, str], str]] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         self.space = Space(self.home)
@@ -149,18 +150,24 @@ class Runtime:
     def tick(self, seconds: float, *, act: bool = True, user: str = "default") -> bool:
         """Let a simulated source live ``seconds`` of simulated time; then, if ``act``, the robot
         carries out the IoT switches of the services it proposes there. True if the context changed."""
+        if not getattr(self.source, "ready", True):  # a broker has not sent every state yet
+            return False
         advance = getattr(self.source, "advance", None)
         before = self.source.snapshot()
         if advance is not None:
             advance(seconds)
         if act:
-            point = self.space.point(self.source.snapshot())
+            now = self.source.snapshot()
+            point = self.space.point(now)
             with self.lock:
                 proposed = self.tree.predict_one(point, user=user)
             iot = {d.name for d in self.home.devices if d.iot}
             for name in proposed:
                 for device, on in self.home.services[self.home.service_index(name)].sets:
-                    if device in iot:
+                    wanted = "on" if on else "off"
+                    # one command per change of the home, not one a tick while a device is slow to report
+                    if device in iot and now[device] != wanted and self._sent.get(device) != (now, wanted):
+                        self._sent[device] = (now, wanted)
                         self.source.switch(device, on)
         after = self.source.snapshot()
         if after != before:
