@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import pytest
@@ -117,6 +118,56 @@ def test_bad_cognize_input_is_a_422_naming_it(client, body, message):
     r = client.post("/api/cognize", json=body)
     assert r.status_code == 422
     assert message in str(r.json()["detail"])
+
+
+def test_the_fast_path_answers_as_the_fastapi_route(client, runtime):
+    """Every context of the studio's grid, for a user with corrections and one without: the
+    fast path in front (``client``) and the FastAPI route behind it give the same answers."""
+    from homecog.evaluation.scenarios import random_scenarios
+
+    route = TestClient(create_app(runtime).app.app)  # the FastAPI application itself
+    client.post("/api/corrections", json={"context": WORK, "want": ["RadioOn"], "user": "kim"})
+    contexts = [runtime.space.context(s.point) for s in random_scenarios(runtime.home, 300, seed=3)]
+    services = set()
+    for context in contexts:
+        for user in ("kim", "default"):
+            fast = client.post("/api/cognize", json={"context": context, "user": user})
+            slow = route.post("/api/cognize", json={"context": context, "user": user})
+            assert fast.status_code == slow.status_code == 200
+            assert fast.json() == slow.json() == runtime.cognize(context, user)
+            services.update(fast.json()["services"])
+    assert services >= {"RaiseBlind", "LampOn", "BringTea", "RadioOn"}  # not 600 empty answers
+    # a bad request reaches the route through the fast path: the same error, word for word
+    for body in ({"context": {**WORK, "light": "bright"}}, {"context": WORK, "user": ""}, {"context": 3}):
+        fast, slow = client.post("/api/cognize", json=body), route.post("/api/cognize", json=body)
+        assert fast.status_code == slow.status_code == 422 and fast.json() == slow.json()
+    broken = {"content": b'{"context": ', "headers": {"content-type": "application/json"}}
+    assert client.post("/api/cognize", **broken).json() == route.post("/api/cognize", **broken).json()
+
+
+def test_cognize_waits_while_a_correction_holds_the_tree(client, runtime):
+    import threading
+    import time
+
+    runtime.lock.acquire()
+    threading.Timer(0.3, runtime.lock.release).start()
+    t0 = time.perf_counter()
+    r = client.post("/api/cognize", json={"context": WORK})
+    assert r.status_code == 200 and time.perf_counter() - t0 >= 0.25
+    assert r.json()["services"] == runtime.tree.predict_one(runtime.space.point(WORK))
+
+
+def test_chunked_bodies_are_limited_too(client):
+    def chunks(n: int):
+        for _ in range(n):
+            yield b" " * 1024
+
+    headers = {"content-type": "application/json"}
+    r = client.post("/api/cognize", content=chunks(MAX_BODY // 1024 + 1), headers=headers)
+    assert r.status_code == 413 and "64 KiB" in r.json()["detail"]
+    body = b" " * (MAX_BODY - 200) + b'{"context": %s}' % json.dumps(WORK).encode()
+    r = client.post("/api/cognize", content=iter([body[:1000], body[1000:]]), headers=headers)
+    assert r.status_code == 200 and "LampOn" in r.json()["services"]
 
 
 def test_bad_input_stores_nothing(client, runtime):

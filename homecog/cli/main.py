@@ -673,6 +673,7 @@ def up(
     ] = None,
 ) -> None:
     """Start the robot: train or reuse the Q table, build or reuse the tree, serve the HMI."""
+    import gc
     import secrets
 
     import uvicorn
@@ -711,7 +712,15 @@ def up(
         say(f"knowledge: {redact(store.url)} ({store.experience_count():,} experiences)", style="dim")
         say(f"homecog is up: http://{host if ':' not in host else f'[{host}]'}:{port}")
         live = (speed or None) if mqtt is None else 1.0  # with a broker the clock is the home's own
-        uvicorn.run(create_app(runtime, speed=live), host=host, port=port, log_level="warning")
+        gc.freeze()  # the tree lives as long as the server: keep the collector from walking it
+        uvicorn.run(
+            create_app(runtime, speed=live),
+            host=host,
+            port=port,
+            log_level="warning",
+            access_log=False,
+            proxy_headers=False,  # no proxy is trusted: X-Forwarded-For is not the client
+        )
     finally:
         store.close()
 

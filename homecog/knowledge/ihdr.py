@@ -167,7 +167,8 @@ class Node:
 
 @dataclass
 class Explanation:
-    """Why a service was predicted: the node, the cluster, the conditions it matched."""
+    """Why a service was predicted: the node, the cluster (its priority, the mean position of
+    the service in its experiences, rounded to 3 decimals), the conditions it matched."""
 
     service: str
     category: str
@@ -180,7 +181,7 @@ class Explanation:
         return {
             "service": self.service,
             "category": self.category,
-            "priority": round(self.priority, 3),
+            "priority": self.priority,
             "cluster": self.cluster,
             "user": self.user,
             "conditions": self.conditions,
@@ -317,6 +318,8 @@ class IHDRTree:
         # responds at that point (-1: none); built on demand, dropped when the tree changes
         self._dense: np.ndarray | None = None
         self._before: list[set[int]] | None = None  # services that must precede each service
+        self._label_table: list[list[str]] | None = None  # see _labels
+        self._described: dict[tuple[Any, ...], dict[str, str]] = {}  # see describe
         sizes = [len(d.values) for d in self._space.dims]
         self._radices = tuple(sizes)
         self._strides = tuple(int(np.prod(sizes[j + 1 :], dtype=np.int64)) for j in range(len(sizes)))
@@ -694,7 +697,7 @@ class IHDRTree:
             Explanation(
                 service=node.name,
                 category=node.parent.name if node.parent else "",
-                priority=self._priority(node, cluster),
+                priority=round(self._priority(node, cluster), 3),
                 cluster=cluster.id,
                 user=cluster.user,
                 conditions=self.describe(cluster),
@@ -712,23 +715,50 @@ class IHDRTree:
         return [node.name for node, _ in self._search(self.point(x), user)[0]]
 
     def describe(self, cluster: Cluster) -> dict[str, str]:
-        """A cluster's conditions as text, per related dimension."""
+        """A cluster's conditions as text, per related dimension.
+
+        Conditions on codes alone (frozensets, which never change) are described once and
+        remembered: explanations are on the path of every ``POST /api/cognize``.
+        """
+        items = sorted(cluster.conditions.items())
+        key = tuple(items)
+        try:
+            return dict(self._described[key])
+        except TypeError:  # a numeric condition: its mean moves with what it learns
+            pass
+        except KeyError:
+            if len(self._described) >= 100_000:
+                self._described.clear()
+            self._described[key] = self._describe(items)
+            return dict(self._described[key])
+        return self._describe(items)
+
+    def _describe(self, items: list[tuple[int, Condition]]) -> dict[str, str]:
+        labels = self._labels()
         out = {}
-        for j, cond in sorted(cluster.conditions.items()):
+        for j, cond in items:
             dim = self._space.dims[j]
             if isinstance(cond, Numeric):
                 fmt = format_clock if dim.kind == "clock" else (lambda v: format_number(round(v, 2)))
                 out[dim.name] = f"{fmt(cond.mean)} ± {format_number(round(cond.range, 2))}"
-            elif dim.numeric:
-                feature = self.home.features[j]
-                out[dim.name] = ", ".join(
-                    f"{feature.values[k]} {feature.describe_bin(k)}" for k in sorted(cond)
-                )
             else:
-                out[dim.name] = ", ".join(dim.values[k] for k in sorted(cond))
+                out[dim.name] = ", ".join([labels[j][k] for k in sorted(cond)])
         return out
 
-    # -- corrections -------------------------------------------------------------------------
+    def _labels(self) -> list[list[str]]:
+        """Per dimension, each code's text in explanations ("high (≥ 28 °C)", "on"); made once,
+        since explanations are on the path of every ``POST /api/cognize``."""
+        if self._label_table is None:
+            table = []
+            for j, dim in enumerate(self._space.dims):
+                if dim.numeric:
+                    feature = self.home.features[j]
+                    table.append([f"{v} {feature.describe_bin(k)}" for k, v in enumerate(feature.values)])
+                else:
+                    table.append(list(dim.values))
+            self._label_table = table
+        return self._label_table
+
     def correct_one(
         self, x: Mapping[str, object] | Point, want: Sequence[str], user: str = "default"
     ) -> tuple[list[str], list[str]]:

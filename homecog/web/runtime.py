@@ -19,6 +19,8 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
+import orjson
+
 from homecog.context import ContextSource
 from homecog.errors import ContextError
 from homecog.home.model import Home, format_clock, format_number
@@ -77,14 +79,15 @@ class Correction:
 @dataclass
 class Runtime:
     """Everything the routes share. Cognition and corrections hold ``lock``: the tree is not
-    thread-safe and FastAPI runs plain route functions in a thread pool."""
+    thread-safe, FastAPI runs plain route functions (corrections) in a thread pool, and
+    cognition runs on the event loop unless ``lock`` is held (see ``CognizeFastPath``)."""
 
     home: Home
     store: Store
     tree: IHDRTree
     source: ContextSource
     token: str | None = None
-    lock: threading.RLock = field(default_factory=threading.RLock)
+    lock: threading.Lock = field(default_factory=threading.Lock)
     history: deque[Correction] = field(default_factory=lambda: deque(maxlen=500))
     _subscribers: set[asyncio.Queue[str]] = field(default_factory=set)
     _sent: dict[str, tuple[dict[str, str], str]] = field(default_factory=dict)
@@ -115,6 +118,13 @@ class Runtime:
         point = self.space.point(context)
         with self.lock:
             return self.tree.explain_one(point, user=user).as_dict()
+
+    def cognize_json(self, context: Mapping[str, object], user: str) -> bytes:
+        """:meth:`cognize` as JSON, the same object; orjson writes the dataclasses directly."""
+        point = self.space.point(context)
+        with self.lock:
+            answer = self.tree.explain_one(point, user=user)
+        return orjson.dumps(answer)
 
     def correct(self, context: Mapping[str, object], want: list[str], user: str) -> dict[str, Any]:
         point = self.space.point(context)
