@@ -102,6 +102,14 @@ def test_the_page_shows_live_context_and_takes_a_correction(server):
         after = services.evaluate_all("els => els.map(e => e.dataset.service)")
         assert set(after) == {"LampOn", "RadioOn"}
         expect(page.locator("#agreement")).to_contain_text("1 corrections by kim")
+
+        # the plan of the services drawn on the floor plan: the robot walks to the desk lamp
+        expect(page.locator("#trajectory")).to_be_visible()
+        expect(page.locator("#trajectory rect.room")).to_have_count(2)  # the studio and the bath
+        expect(page.locator("#route")).to_contain_text("m driven")
+        path = page.locator("#trajectory #path").get_attribute("points").split()
+        (x0, y0), (x1, y1) = (map(float, path[0].split(",")), map(float, path[-1].split(",")))
+        assert (x0, y0) == (1, 3) and abs(x1 - 2) < 0.05 and abs(y1 - 2) < 0.05  # y drawn downwards
         SCREENSHOT.parent.mkdir(exist_ok=True)
         page.screenshot(path=str(SCREENSHOT), full_page=True)
         browser.close()

@@ -60,6 +60,8 @@ def test_home_and_context(client, runtime):
     home = client.get("/api/home").json()
     assert [f["name"] for f in home["features"]] == ["time", "light", "activity"]
     assert [s["name"] for s in home["services"]] == list(runtime.home.service_names)
+    assert home["layout"]["rooms"] == {"studio": [0, 0, 4, 4], "bath": [4, 0, 6, 4]}
+    assert home["layout"]["places"]["kettle"] == [5, 3] and home["layout"]["doors"] == [[4, 1, 4, 2]]
     assert client.get("/api/context").json() == runtime.source.snapshot()
     r = client.put("/api/context", json={"values": {"activity": "relax", "radio": "on"}})
     assert r.status_code == 200 and r.json()["activity"] == "relax" and r.json()["radio"] == "on"
@@ -98,6 +100,20 @@ def test_plan(client):
     r = client.post("/api/plan", json={"services": ["BringTea"], "context": WORK})
     assert r.status_code == 200
     assert r.json()["actions"] == [["move", "desk", "desk"], ["speak", "bring tea"]]  # no errand: speak
+    sim = r.json()["simulation"]
+    assert [row["action"] for row in sim["timeline"]] == r.json()["actions"]
+    assert sim["distance_m"] == 0 and sim["seconds"] == 1.8  # "bring tea": 1 s and 0.4 s a word
+    assert sim["trajectory"][-1][1:] == [1.0, 1.0]  # at the desk
+    # the desk lamp has no IoT switch: the robot drives to it, and the trajectory shows the way
+    r = client.post("/api/plan", json={"services": ["LampOn"], "context": WORK})
+    sim = r.json()["simulation"]
+    assert r.json()["actions"] == [["move", "desk", "studio"], ["switch_by_hand", "desk_lamp", "on"]]
+    assert 1.41 <= sim["distance_m"] < 1.6 and 2 < len(sim["trajectory"]) <= 400
+    xs, ys = zip(*((x, y) for _, x, y in sim["trajectory"]), strict=True)
+    assert (xs[0], ys[0]) == (1.0, 1.0) and abs(xs[-1] - 2) < 0.05 and abs(ys[-1] - 2) < 0.05
+    assert sim["devices"]["desk_lamp"] == "on"
+    times = [t for t, _, _ in sim["trajectory"]]
+    assert times == sorted(times) and times[-1] <= sim["seconds"]
     assert client.post("/api/plan", json={"services": ["Fly"]}).status_code == 422
 
 

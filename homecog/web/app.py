@@ -28,6 +28,7 @@ from contextlib import asynccontextmanager
 from pathlib import Path
 from typing import Annotated, Any
 
+import numpy as np
 from fastapi import Depends, FastAPI, Header, HTTPException, Request
 from fastapi.responses import HTMLResponse, JSONResponse, StreamingResponse
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
@@ -121,7 +122,9 @@ def create_app(runtime: Runtime, *, speed: float | None = None) -> ASGIApp:
 
     @app.get("/api/home")
     def get_home() -> dict[str, Any]:
-        """The home's features (with values), devices and services."""
+        """The home's features (with values), devices and services, and its floor plan (null
+        without one): size, rooms and walls and doors as rectangles and segments
+        ``[x0, y0, x1, y1]``, places as points, the robot's start place; metres, y up."""
         h = runtime.home
         return {
             "name": h.name,
@@ -131,7 +134,7 @@ def create_app(runtime: Runtime, *, speed: float | None = None) -> ASGIApp:
             ],
             "devices": [{"name": d.name, "room": d.room, "iot": d.iot} for d in h.devices],
             "services": [{"name": s.name, "category": s.category} for s in h.services],
-            "layout": h.layout is not None,
+            "layout": _layout(h),
         }
 
     @app.get("/api/context")
@@ -157,12 +160,23 @@ def create_app(runtime: Runtime, *, speed: float | None = None) -> ASGIApp:
 
     @app.post("/api/plan")
     def plan(body: PlanIn) -> dict[str, Any]:
-        """The services decomposed into robot actions, in the given order."""
-        from homecog.planning import plan_services
+        """The services decomposed into robot actions, in the given order, and the plan carried
+        out by the simulated robot on the floor plan: its timeline, time, distance and
+        trajectory (``[t, x, y]`` rows, at most 400, metres and seconds)."""
+        from homecog.planning import initial_state, plan_services
+        from homecog.simulation import simulate
 
         context = dict(runtime.space.context(runtime.space.point(body.context))) if body.context else None
         result = plan_services(runtime.home, body.services, context=context)
-        return {"actions": [list(a) for a in result.actions], "tree": [n.as_dict() for n in result.tree]}
+        sim = simulate(runtime.home, result.actions, devices=initial_state(runtime.home, context).devices)
+        simulation = sim.as_dict()
+        del simulation["actions"]  # the same as the plan's
+        simulation["trajectory"] = _thin(sim.trajectory, 400)
+        return {
+            "actions": [list(a) for a in result.actions],
+            "tree": [n.as_dict() for n in result.tree],
+            "simulation": simulation,
+        }
 
     @app.get("/api/history")
     def history(user: str | None = None) -> dict[str, Any]:
@@ -209,6 +223,31 @@ async def _live(runtime: Runtime, speed: float, period: float = 1.0) -> None:
         except Exception:  # the server stays up whatever the simulation does
             logging.getLogger("homecog.web").exception("the simulated home failed a tick")
         last = now
+
+
+def _layout(home: Any) -> dict[str, Any] | None:
+    layout = home.layout
+    if layout is None:
+        return None
+    return {
+        "size": list(layout.size),
+        "rooms": {name: list(r) for name, r in layout.rooms.items()},
+        "walls": [list(w) for w in layout.walls],
+        "doors": [list(d) for d in layout.doors],
+        "places": {name: list(p) for name, p in layout.places.items()},
+        "robot": layout.robot,
+    }
+
+
+def _thin(trajectory: np.ndarray, most: int) -> list[list[float]]:
+    """At most ``most`` rows ``[t, x, y]`` of a trajectory, evenly spaced, first and last kept.
+
+    >>> _thin(np.array([[t, t, 0, 0] for t in range(10)], dtype=float), 4)
+    [[0.0, 0.0, 0.0], [3.0, 3.0, 0.0], [6.0, 6.0, 0.0], [9.0, 9.0, 0.0]]
+    """
+    n = len(trajectory)
+    keep = np.unique(np.linspace(0, n - 1, min(n, most)).round().astype(int)) if n else []
+    return [[round(float(t), 2), round(float(x), 3), round(float(y), 3)] for t, x, y, *_ in trajectory[keep]]
 
 
 class CognizeFastPath:
