@@ -363,3 +363,62 @@ def test_the_running_robot_follows_the_broker_and_sends_each_command_once(broker
         sub.loop_stop()
         sub.disconnect()
         store.close()
+
+
+def test_homecog_up_mirrors_the_simulated_home_on_the_broker(broker, tmp_path):
+    """``homecog up --publish``: the simulated home's states go out as it lives, and a command
+    from the broker switches its device (the home's name, random here, keeps the topics apart)."""
+    import json
+    import sys
+    import urllib.request
+
+    name = f"studio_{secrets.token_hex(4)}"
+    text = (Path(__file__).parent / "homes" / "studio.yaml").read_text()
+    (tmp_path / "home.yaml").write_text(text.replace("name: studio", f"name: {name}", 1))
+    port = _free_port()
+    seen: dict[str, list[str]] = {}
+    lock = threading.Lock()
+
+    def on_message(client: object, userdata: object, m: mqtt.MQTTMessage) -> None:
+        with lock:
+            seen.setdefault(m.topic.rsplit("/", 1)[1], []).append(m.payload.decode())
+
+    sub = mqtt.Client(CallbackAPIVersion.VERSION2)
+    sub.on_message = on_message
+    address = parse_url(broker)
+    sub.connect(address.host, address.port)
+    sub.subscribe(f"homecog/{name}/state/#", qos=1)
+    sub.loop_start()
+    env = {**os.environ, "HOMECOG_DATA": str(tmp_path / "data")}
+    args = ["up", "--home", str(tmp_path / "home.yaml"), "--port", str(port), "--speed", "600"]
+    up = subprocess.Popen(
+        [sys.executable, "-m", "homecog.cli.main", *args, "--publish", broker],
+        env=env,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+    )
+    try:
+        _wait(lambda: len(seen.get("time", [])) >= 3, "the simulated clock on the broker", timeout=90)
+        with lock:
+            assert set(seen) == {"time", "light", "activity", "blind", "desk_lamp", "radio"}
+            assert seen["desk_lamp"] == ["off"]
+            times = list(seen["time"])
+        assert times[:3] == sorted(times[:3]) and len(set(times)) == len(times)  # ten minutes a second
+        _publish(broker, f"homecog/{name}/command/desk_lamp", "on", retain=False)
+        _wait(lambda: seen["desk_lamp"][-1] == "on", "the switched desk lamp's state")
+        with urllib.request.urlopen(f"http://127.0.0.1:{port}/api/context", timeout=5) as r:
+            assert json.load(r)["desk_lamp"] == "on"
+    finally:
+        up.terminate()
+        out = up.communicate(timeout=20)[0].decode()
+        sub.loop_stop()
+        sub.disconnect()
+        _clear(broker, load_home(tmp_path / "home.yaml"), "homecog")
+    assert f"homecog/{name}/state/<name>" in out.replace("\n", "")  # rich folds long lines
+
+
+def test_publish_needs_the_simulator():
+    from homecog.cli.main import main
+
+    assert main(["up", "--publish", "mqtt://127.0.0.1:1883", "--mqtt", "mqtt://127.0.0.1:1883"]) == 2
+    assert main(["up", "--publish", "mqtt://127.0.0.1:1883", "--speed", "0"]) == 2

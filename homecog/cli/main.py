@@ -6,6 +6,7 @@ prints one line on stderr and exits with status 2; nothing is overwritten.
 
 from __future__ import annotations
 
+import contextlib
 import os
 import sys
 import tempfile
@@ -671,6 +672,12 @@ def up(
             help="Take the context from this MQTT broker (mqtt://host:1883) instead of the simulator."
         ),
     ] = None,
+    publish: Annotated[
+        str | None,
+        typer.Option(
+            help="Mirror the simulated home on this MQTT broker: its states go out, commands come in."
+        ),
+    ] = None,
 ) -> None:
     """Start the robot: train or reuse the Q table, build or reuse the tree, serve the HMI."""
     import gc
@@ -690,13 +697,16 @@ def up(
         raise UsageProblemError(f"--speed must be 0 to 100000, got {speed:g}")
     if token is not None and len(token) < 8:
         raise UsageProblemError("--token must be at least 8 characters")
+    if publish is not None and (mqtt is not None or speed == 0):
+        raise UsageProblemError("--publish mirrors the simulated home; it needs --speed > 0 and no --mqtt")
     h = load_home(home)
     if host not in LOCAL_HOSTS and token is None:
         token = secrets.token_urlsafe(24)
         stdout.print(f"token for writes (shown once): {token}")
     say = stdout.print
-    store = Store(db, h)
-    try:
+    with contextlib.ExitStack() as stack:
+        store = Store(db, h)
+        stack.callback(store.close)
         tree = open_tree(h, store, progress=lambda m: say(m, style="dim"))
         source: Any = SimulatedHome(h, speed=speed) if speed > 0 else ManualSource(h)
         if mqtt is not None:
@@ -704,11 +714,23 @@ def up(
 
             source = MqttSource(h, mqtt, on_change=lambda snapshot: runtime.publish("context", snapshot))
             source.start()
+            stack.callback(source.stop)
             say(
                 f"context from {mqtt}: topics homecog/{h.name}/state/<name>, "
                 f"commands to homecog/{h.name}/command/<device>"
             )
         runtime = Runtime(home=h, store=store, tree=tree, source=source, token=token)
+        if publish is not None:
+            from homecog.context.mqtt import MqttPublisher
+
+            mirror = MqttPublisher(h, publish, on_command=runtime.switch).start()
+            stack.callback(mirror.stop)
+            mirror.publish(source.snapshot(), everything=True)
+            runtime.watchers.append(mirror.publish)
+            say(
+                f"the simulated home on {publish}: states to homecog/{h.name}/state/<name>, "
+                f"commands from homecog/{h.name}/command/<device>"
+            )
         say(f"knowledge: {redact(store.url)} ({store.experience_count():,} experiences)", style="dim")
         say(f"homecog is up: http://{host if ':' not in host else f'[{host}]'}:{port}")
         live = (speed or None) if mqtt is None else 1.0  # with a broker the clock is the home's own
@@ -721,8 +743,6 @@ def up(
             access_log=False,
             proxy_headers=False,  # no proxy is trusted: X-Forwarded-For is not the client
         )
-    finally:
-        store.close()
 
 
 # -- entry point -------------------------------------------------------------------------------

@@ -423,6 +423,7 @@ class MqttPublisher:
         self.address = parse_url(url)
         self._published: dict[str, str] = {}
         self._pending: list[mqtt.MQTTMessageInfo] = []
+        self._lock = threading.Lock()  # publish is called from the simulation and paho threads
         self._connected = threading.Event()
         self._client: mqtt.Client | None = None
 
@@ -475,14 +476,15 @@ class MqttPublisher:
         if self._client is None:
             raise ContextError("MQTT publisher not started; call start() first")
         sent = 0
-        self._pending = [m for m in self._pending if not m.is_published()]
-        for name, value in snapshot.items():
-            text = normalize(self.home, name, value)
-            if everything or self._published.get(name) != text:
-                topic = state_topic(self.home, name, prefix=self.prefix)
-                self._pending.append(self._client.publish(topic, text, qos=1, retain=True))
-                self._published[name] = text
-                sent += 1
+        with self._lock:
+            self._pending = [m for m in self._pending if not m.is_published()]
+            for name, value in snapshot.items():
+                text = normalize(self.home, name, value)
+                if everything or self._published.get(name) != text:
+                    topic = state_topic(self.home, name, prefix=self.prefix)
+                    self._pending.append(self._client.publish(topic, text, qos=1, retain=True))
+                    self._published[name] = text
+                    sent += 1
         return sent
 
     def _on_connect(self, client: mqtt.Client, userdata: Any, flags: Any, reason: Any, props: Any) -> None:

@@ -12,10 +12,11 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import json
+import logging
 import threading
 import time
 from collections import deque
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -89,6 +90,7 @@ class Runtime:
     token: str | None = None
     lock: threading.Lock = field(default_factory=threading.Lock)
     history: deque[Correction] = field(default_factory=lambda: deque(maxlen=500))
+    watchers: list[Callable[[dict[str, str]], object]] = field(default_factory=list)
     _subscribers: set[asyncio.Queue[str]] = field(default_factory=set)
     _sent: dict[str, tuple[dict[str, str], str]] = field(default_factory=dict)
 
@@ -195,9 +197,20 @@ class Runtime:
     def unsubscribe(self, queue: asyncio.Queue[str]) -> None:
         self._subscribers.discard(queue)
 
+    def switch(self, device: str, on: bool) -> None:
+        """Switch a device of the home, as an IoT command from outside (a broker) does."""
+        self.source.switch(device, on)
+        self.publish("context", self.context())
+
     def publish(self, kind: str, data: object) -> None:
         """Send an event to every open stream, from any thread (a slow reader loses old events,
-        not the server)."""
+        not the server); a new context also goes to every watcher (a failing one is logged)."""
+        if kind == "context":
+            for watcher in self.watchers:
+                try:
+                    watcher(data)  # type: ignore[arg-type]
+                except Exception:
+                    logging.getLogger("homecog.web").exception("a context watcher failed")
         loop = getattr(self, "_loop", None)
         if loop is None or loop.is_closed() or not self._subscribers:
             return
