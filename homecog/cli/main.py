@@ -59,10 +59,10 @@ def _when(home: Home, cond: Any) -> str:
 
 
 def home_summary(home: Home) -> dict[str, Any]:
-    """Sizes of a home's spaces (used by ``home show`` and ``home check``)."""
-    from homecog.environment.core import Core
+    """Sizes of a home's spaces (used by ``home show`` and ``home check``): the joint space, and
+    the independent groups the learner splits it into (SPEC §4.1)."""
+    from homecog.learning.size import sizes
 
-    core = Core(home)
     return {
         "name": home.name,
         "source": home.source,
@@ -71,10 +71,13 @@ def home_summary(home: Home) -> dict[str, Any]:
         "contexts": home.context_count,
         "devices": len(home.devices),
         "services": len(home.services),
-        "start_states": core.n_start_states(),
-        "states": core.n_states,
-        "q_table_bytes": core.table_bytes(),
+        **sizes(home),
     }
+
+
+def _big(n: int) -> str:
+    """A count as people read it: ``663,552``, or ``1.3e+62`` past a trillion."""
+    return f"{n:,}" if n < 10**12 else f"{n:.2g}"
 
 
 @home_app.command("show")
@@ -87,9 +90,12 @@ def home_show(home: HomeOption = "paper", json: JsonOption = False) -> None:
     s = home_summary(h)
     stdout.print(f"[bold]{h.name}[/bold] ({h.source}) — {h.description or ''}")
     stdout.print(
-        f"{s['contexts']:,} contexts × {2 ** s['devices']:,} device states = "
-        f"{s['start_states']:,} start states; {s['states']:,} states with pending needs; "
-        f"hash {h.content_hash[:12]}"
+        f"{s['contexts']:,} contexts × 2^{s['devices']} device states = {_big(s['start_states'])} start "
+        f"states; {_big(s['states'])} states with pending needs; hash {h.content_hash[:12]}"
+    )
+    stdout.print(
+        f"learned in {s['groups']} independent groups, {s['group_states']:,} states in all; the largest, "
+        f"{s['largest_group']}, has {s['largest_group_states']:,}"
     )
 
     t = Table(title="Context features (code / normalized, as Table 1)", title_justify="left")
@@ -140,9 +146,11 @@ def home_check(
     file: Annotated[str, typer.Argument(help="The home file to validate.")], json: JsonOption = False
 ) -> None:
     """Validate a home file; report its size and any start state that cannot reach its optimum."""
-    from homecog.environment.core import Core, solvable_start_states
+    from homecog.environment.conflicts import find_conflicts
+    from homecog.learning.size import check_size, describe
 
     h = load_home(file)
+    size = check_size(h)
     if h.layout is not None:  # every place the robot may be sent to must be reachable
         from homecog.simulation import plan_path
 
@@ -153,22 +161,30 @@ def home_check(
         for target in targets:
             plan_path(h.layout, h.layout.robot, target)
     summary = home_summary(h)
-    solvable = solvable_start_states(Core(h).tables)
-    stuck = int((~solvable).sum())
-    summary["unsolvable_start_states"] = stuck
+    report = find_conflicts(h)
+    summary["unsolvable_start_states"] = report.stuck
+    summary["conflicts"] = [
+        {"group": c.group.label, "stuck": c.stuck, "start_states": c.start_states, "example": c.example}
+        for c in report.groups
+    ]
     if json:
         emit_json({"ok": True, **summary})
         return
     stdout.print(
         f"ok: {h.source}: home '{h.name}': {summary['features']} features, "
         f"{summary['contexts']:,} contexts, {summary['devices']} devices, "
-        f"{summary['services']} services, {summary['states']:,} states"
+        f"{summary['services']} services; {describe(size)}"
     )
-    if stuck:
+    if report.stuck:
         stdout.print(
-            f"warning: {stuck:,} of {summary['start_states']:,} start states cannot reach the "
-            "optimum without a prohibited or useless service (conflicting rules)"
+            f"warning: {_big(report.stuck)} of {_big(report.start_states)} start states cannot reach the "
+            "optimum without a prohibited or useless service (conflicting rules):"
         )
+        for c in report.groups:
+            example = ", ".join(f"{k}={v}" for k, v in c.example.items())
+            stdout.print(
+                f"  {c.group.label}: {c.stuck:,} of its {c.start_states:,} start states, e.g. {example}"
+            )
 
 
 # -- homecog train -----------------------------------------------------------------------------
@@ -190,26 +206,35 @@ def _check_writable(path: Path) -> None:
 @app.command()
 def train(
     home: HomeOption = "paper",
-    episodes: Annotated[int | None, typer.Option(help="Episodes (default 3,000,000).")] = None,
+    episodes: Annotated[
+        int | None,
+        typer.Option(
+            help="Episodes: in all, split over the groups by size (default: sweeps until every "
+            "group's policy is stable); with --joint, 3,000,000 by default."
+        ),
+    ] = None,
     seed: Annotated[int, typer.Option(help="Seed; a run is reproducible from it.")] = 0,
     alpha: Annotated[float | None, typer.Option(help="Learning rate α (default 1.0).")] = None,
     gamma: Annotated[float | None, typer.Option(help="Discount γ (default 0.2).")] = None,
     epsilon_c: Annotated[float | None, typer.Option(help="ε_t = √(c/t); the paper's c = 2.")] = None,
     max_steps: Annotated[int | None, typer.Option(help="Step limit of an episode (default 30).")] = None,
     out: Annotated[Path | None, typer.Option(help="Where to save the Q table (default: the cache).")] = None,
+    joint: Annotated[
+        bool, typer.Option("--joint", help="One table over the joint state, as the paper (small homes only).")
+    ] = False,
     json: JsonOption = False,
 ) -> None:
-    """Learn the home's services by Sarsa and save the Q table."""
+    """Learn the home's services by Sarsa, group by group, and save the Q tables."""
     from dataclasses import replace
 
-    from homecog.environment.core import Core
+    from homecog.learning.grouped import train_policy
     from homecog.learning.sarsa import SarsaConfig
-    from homecog.learning.sarsa import train as run_sarsa
+    from homecog.learning.size import check_size
     from homecog.paths import q_table_path
 
     h = load_home(home)
     given = {
-        "episodes": episodes,
+        "episodes": episodes if joint else None,
         "seed": seed,
         "alpha": alpha,
         "gamma": gamma,
@@ -221,12 +246,15 @@ def train(
         config.validate()
     except ValueError as e:
         raise UsageProblemError(str(e)) from None
-    path = out if out is not None else q_table_path(h)
+    if episodes is not None and episodes < 0:
+        raise UsageProblemError(f"episodes must be 0 or more, got {episodes}")
+    size = check_size(h, joint=joint)
+    path = out if out is not None else q_table_path(h, joint=joint)
     _check_writable(path)
-    core = Core(h)
-    with progress_bar(f"Sarsa on {h.name}", config.episodes) as update:
-        result = run_sarsa(h, config, core=core, progress=update)
-    result.q_table.save(path)
+    starts = h.context_count << len(h.devices)
+    with progress_bar(f"Sarsa on {h.name}", config.episodes if joint else 1) as update:
+        result = train_policy(h, config, joint=joint, episodes=None if joint else episodes, progress=update)
+    result.policy.save(path)
     data = {
         "episodes": result.episodes,
         "steps": result.steps,
@@ -236,16 +264,19 @@ def train(
         "q_path": str(path),
         "home": h.name,
         "home_hash": h.content_hash,
+        "joint": joint,
+        "groups": size.groups,
     }
     if json:
         emit_json(data)
         return
+    how = "one joint table" if joint else f"{size.groups} groups"
     stdout.print(
-        f"trained {h.name}: {result.episodes:,} episodes, {result.steps:,} steps in "
+        f"trained {h.name} ({how}): {result.episodes:,} episodes, {result.steps:,} steps in "
         f"{result.seconds:.1f} s ({result.steps_per_second / 1e6:.2f} M steps/s)"
     )
     stdout.print(
-        f"greedy-optimal rate {result.greedy_optimal_rate:.6f} over {core.n_start_states():,} start states"
+        f"greedy-optimal rate {result.greedy_optimal_rate:.6f} over {_big(starts)} start states (exact)"
     )
     stdout.print(f"Q table: {path}")
 
@@ -282,6 +313,9 @@ def build(
         typer.Option(help="multi (several clusters per service) or paper (Algorithms 2 and 3 as published)."),
     ] = "multi",
     seed: Annotated[int, typer.Option(help="Seed of the random readings inside bins.")] = 0,
+    joint: Annotated[
+        bool, typer.Option("--joint", help="Use the joint Q table (train --joint) instead of the groups'.")
+    ] = False,
     json: JsonOption = False,
 ) -> None:
     """Build the knowledge tree from the Q table's samples and store it."""
@@ -298,7 +332,7 @@ def build(
         raise UsageProblemError(f"--q {q}: no such file")
     store = Store(db, h)
     try:
-        result = run_build(h, store, q_path=q, mode=mode, seed=seed, progress=_status)
+        result = run_build(h, store, q_path=q, mode=mode, seed=seed, joint=joint, progress=_status)
         counts = store.counts()
     finally:
         store.close()
@@ -425,6 +459,9 @@ def eval_command(
         Path | None, typer.Option(help="Write a Markdown report with charts into this folder.")
     ] = None,
     db: DbOption = None,
+    joint: Annotated[
+        bool, typer.Option("--joint", help="Learn from the paper's joint Q table (small homes only).")
+    ] = False,
     json: JsonOption = False,
 ) -> None:
     """Precision, recall and F1 of every method on scenarios; with --corrections, how the robot develops."""
@@ -448,7 +485,15 @@ def eval_command(
     if report is not None:
         _check_writable(report / "report.md")
     result = run_eval(
-        h, t, scenarios=cases, seed=seed, methods=names, corrections=corrections, db=db, progress=_status
+        h,
+        t,
+        scenarios=cases,
+        seed=seed,
+        methods=names,
+        corrections=corrections,
+        db=db,
+        joint=joint,
+        progress=_status,
     )
     data = result.as_dict()
     if report is not None:
@@ -468,6 +513,8 @@ def eval_command(
     table.add_row("paper's Sarsa+IHDR", "0.9821", "0.9026", "0.9407", "", "")
     table.add_row("paper's K-means", "0.8866", "0.8457", "0.8657", "", "")
     stdout.print(table)
+    for name, why in result.skipped.items():
+        stdout.print(f"{name}: {why}")
     if result.curve:
         stdout.print(
             "corrections → F1: " + ", ".join(f"{c['corrections']}: {c['f1']:.3f}" for c in result.curve)
@@ -491,6 +538,9 @@ def replay(
     report: Annotated[
         Path | None, typer.Option(help="Write a Markdown report with the running figures into this folder.")
     ] = None,
+    joint: Annotated[
+        bool, typer.Option("--joint", help="Start from the paper's joint Q table (small homes only).")
+    ] = False,
     json: JsonOption = False,
 ) -> None:
     """Prequential evaluation: every method predicts each event, then learns it."""
@@ -503,7 +553,7 @@ def replay(
         raise UsageProblemError(f"--events {events}: no such file")
     if report is not None:
         _check_writable(report / "replay.md")
-    result = run_replay(h, events, methods=names, seed=seed, progress=_status)
+    result = run_replay(h, events, methods=names, seed=seed, joint=joint, progress=_status)
     data = result.as_dict()
     if report is not None:
         data["report"] = str(write_replay_report(data, report, f"{events.name} on {h.name}"))
@@ -519,6 +569,8 @@ def replay(
     for name, m in result.methods.items():
         table.add_row(name, *(f"{m[k]:.4f}" for k in ("precision", "recall", "f1")))
     stdout.print(table)
+    for name, why in result.skipped.items():
+        stdout.print(f"{name}: {why}")
     if report is not None:
         stdout.print(f"report: {data['report']}")
 

@@ -45,6 +45,7 @@ from __future__ import annotations
 
 import copy
 import itertools
+import math
 import operator
 from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -322,8 +323,8 @@ class IHDRTree:
         self._described: dict[tuple[Any, ...], dict[str, str]] = {}  # see describe
         sizes = [len(d.values) for d in self._space.dims]
         self._radices = tuple(sizes)
-        self._strides = tuple(int(np.prod(sizes[j + 1 :], dtype=np.int64)) for j in range(len(sizes)))
-        points = int(np.prod(sizes, dtype=np.int64))
+        self._strides = tuple(math.prod(sizes[j + 1 :]) for j in range(len(sizes)))
+        points = math.prod(sizes)
         self._dense_ok = mode == "multi" and points * (len(home.services) + 1) <= DENSE_LIMIT
         self.n_experiences = 0
 
@@ -428,15 +429,21 @@ class IHDRTree:
         learned once with its count, which is what makes building from 663,552 samples quick.
         """
         codes, readings, positions, masks = samples.codes, samples.readings, samples.positions, samples.masks
-        n_dims = len(self._space)
-        numeric = [j for j, d in enumerate(self._space.dims) if d.numeric]
+        local_dims = samples.space.dims
+        n_dims = len(local_dims)
+        # a group's samples: their dimensions and services at their places in the whole home
+        dims = samples.dims if samples.dims is not None else tuple(range(n_dims))
         n_services = positions.shape[1]
+        where = samples.services if samples.services is not None else tuple(range(n_services))
+        numeric = [j for j, d in enumerate(local_dims) if d.numeric]
+        radices = tuple(len(d.values) for d in local_dims)
         idle = (positions < 0).all(axis=1)
         done = positions >= 0
         for a in range(n_services):
             both = done & done[:, [a]]
-            self._precedence[a] += (both & (positions > positions[:, [a]])).sum(axis=0)
+            self._precedence[where[a], list(where)] += (both & (positions > positions[:, [a]])).sum(axis=0)
         self._before = None
+        width = len(self._space)
         for a in range(n_services + 1):
             if a < n_services:
                 rows = np.flatnonzero(positions[:, a] >= 0)
@@ -451,24 +458,35 @@ class IHDRTree:
                 row_pos = np.zeros(len(rows))
             if rows.size == 0:
                 continue
-            first, inverse, counts = _distinct_rows(row_masks, codes[rows], self._radices)
+            first, inverse, counts = _distinct_rows(row_masks, codes[rows], radices)
             pos_sums = np.bincount(inverse, weights=row_pos, minlength=len(first))
             stats = {}
             for j in numeric:
                 vals = readings[rows, j]
                 low, high = _group_min_max(inverse, vals, len(first))
                 stats[j] = (np.bincount(inverse, weights=vals, minlength=len(first)), low, high)
-            for order in np.argsort(first, kind="stable"):  # in the order the samples came
-                row = rows[first[order]]
-                extra = {j: (stats[j][0][order], stats[j][1][order], stats[j][2][order]) for j in numeric}
+            target = where[a] if a < n_services else len(self.home.services)
+            order = np.argsort(first, kind="stable")  # in the order the samples came
+            picked = rows[first[order]]
+            row_codes = codes[picked].tolist()
+            row_readings = readings[picked].tolist()
+            local_masks = row_masks[first[order]].tolist()
+            row_counts, row_sums = counts[order].tolist(), pos_sums[order].tolist()
+            row_stats = {j: [stats[j][k][order].tolist() for k in range(3)] for j in numeric}
+            for i in range(len(order)):
+                local_mask = local_masks[i]
+                full_codes = [0] * width
+                full_readings: list[float | None] = [None] * width
+                mask = 0
+                for j in _bits(local_mask):
+                    g = dims[j]
+                    mask |= 1 << g
+                    full_codes[g] = row_codes[i][j]
+                    r = row_readings[i][j]
+                    full_readings[g] = None if r != r else r  # NaN: not a reading
+                extra = {dims[j]: (st[0][i], st[1][i], st[2][i]) for j, st in row_stats.items()}
                 self._learn_row(
-                    a,
-                    int(row_masks[first[order]]),
-                    tuple(int(c) for c in codes[row]),
-                    tuple(None if np.isnan(r) else float(r) for r in readings[row]),
-                    int(counts[order]),
-                    float(pos_sums[order]),
-                    extra,
+                    target, mask, tuple(full_codes), tuple(full_readings), row_counts[i], row_sums[i], extra
                 )
         self.n_experiences += len(codes)
 
@@ -555,7 +573,7 @@ class IHDRTree:
     ) -> None:
         """Multi mode: join a covering box, merge with a box one dimension away, or start one."""
         index = self._index[node.id]
-        dims = tuple(j for j in range(len(self._space)) if mask >> j & 1)
+        dims = _bits(mask)
         key = tuple(codes[j] for j in dims)
         hit = index.covering(mask, key)
         if hit is not None:
@@ -960,6 +978,20 @@ class IHDRTree:
         state["_dense"] = None  # caches, rebuilt on demand
         state["_before"] = None
         return state
+
+
+def _bits(mask: int) -> tuple[int, ...]:
+    """The positions of the set bits of a mask, lowest first.
+
+    >>> _bits(0b10110)
+    (1, 2, 4)
+    """
+    out = []
+    while mask:
+        low = mask & -mask
+        out.append(low.bit_length() - 1)
+        mask ^= low
+    return tuple(out)
 
 
 def _covers(box: Mapping[int, Condition], codes: Sequence[int]) -> bool:
