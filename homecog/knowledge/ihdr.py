@@ -232,28 +232,38 @@ class _BoxIndex:
         self._keys: dict[int, list[tuple[Any, ...]]] = {}  # cluster id (unique in a node) -> partner keys
 
     @staticmethod
-    def partner_keys(cluster: Cluster) -> list[tuple[Any, ...]]:
-        dims = sorted(cluster.conditions)
+    def partner_keys(cluster: Cluster, mask: int | None = None) -> list[tuple[Any, ...]]:
+        dims = _bits(cluster.mask if mask is None else mask)
         values = [cluster.conditions[d] for d in dims]
         mask = sum(1 << j for j in dims)
         return [(mask, j, (*values[:i], *values[i + 1 :])) for i, j in enumerate(dims)]
 
     def add(self, cluster: Cluster, keys: list[tuple[Any, ...]] | None = None) -> None:
-        dims = tuple(sorted(cluster.conditions))
-        _, table = self.by_mask.setdefault(cluster.mask, (_getter(dims), {}))
-        for key in itertools.product(*(sorted(cluster.conditions[j]) for j in dims)):  # type: ignore[arg-type]
+        self.point_to(cluster, cluster.conditions)
+        self.link(cluster, keys if keys is not None else self.partner_keys(cluster))
+
+    def point_to(self, cluster: Cluster, conditions: dict[int, Condition], mask: int | None = None) -> None:
+        """Make every point of the box ``conditions`` answer ``cluster``."""
+        mask = cluster.mask if mask is None else mask
+        entry = self.by_mask.get(mask)
+        if entry is None:
+            entry = self.by_mask[mask] = (_getter(_bits(mask)), {})
+        table = entry[1]
+        values = [conditions[j] for j in _bits(mask)]
+        if all(len(v) == 1 for v in values):  # type: ignore[arg-type]
+            table[tuple(next(iter(v)) for v in values)] = cluster  # type: ignore[call-overload]
+            return
+        for key in itertools.product(*values):  # type: ignore[arg-type]
             table[key] = cluster
-        keys = keys if keys is not None else self.partner_keys(cluster)
+
+    def link(self, cluster: Cluster, keys: list[tuple[Any, ...]]) -> None:
+        """Register a box as a merge partner under its keys."""
         self._keys[cluster.id] = keys
         for key in keys:
             self.partners.setdefault(key, {})[cluster.id] = cluster
 
-    def remove(self, cluster: Cluster) -> None:
-        dims = tuple(sorted(cluster.conditions))
-        _, table = self.by_mask[cluster.mask]
-        for key in itertools.product(*(sorted(cluster.conditions[j]) for j in dims)):  # type: ignore[arg-type]
-            if table.get(key) is cluster:
-                del table[key]
+    def unlink(self, cluster: Cluster) -> None:
+        """Withdraw a box from the merge partners (its points still answer it)."""
         for key in self._keys.pop(cluster.id):
             del self.partners[key][cluster.id]
 
@@ -461,10 +471,13 @@ class IHDRTree:
             first, inverse, counts = _distinct_rows(row_masks, codes[rows], radices)
             pos_sums = np.bincount(inverse, weights=row_pos, minlength=len(first))
             stats = {}
-            for j in numeric:
-                vals = readings[rows, j]
-                low, high = _group_min_max(inverse, vals, len(first))
-                stats[j] = (np.bincount(inverse, weights=vals, minlength=len(first)), low, high)
+            # readings matter to the paper's clusters (mean ± range); multi keeps bins only
+            if self.mode == "paper" and numeric:
+                grouped = np.argsort(inverse, kind="stable")
+                for j in numeric:
+                    vals = readings[rows, j]
+                    low, high = _group_min_max(grouped, inverse, vals, len(first))
+                    stats[j] = (np.bincount(inverse, weights=vals, minlength=len(first)), low, high)
             target = where[a] if a < n_services else len(self.home.services)
             order = np.argsort(first, kind="stable")  # in the order the samples came
             picked = rows[first[order]]
@@ -472,7 +485,7 @@ class IHDRTree:
             row_readings = readings[picked].tolist()
             local_masks = row_masks[first[order]].tolist()
             row_counts, row_sums = counts[order].tolist(), pos_sums[order].tolist()
-            row_stats = {j: [stats[j][k][order].tolist() for k in range(3)] for j in numeric}
+            row_stats = {j: [stats[j][k][order].tolist() for k in range(3)] for j in stats}
             for i in range(len(order)):
                 local_mask = local_masks[i]
                 full_codes = [0] * width
@@ -581,23 +594,26 @@ class IHDRTree:
             hit.position_sum += pos_sum
             return
         box = self._new_cluster({j: frozenset([codes[j]]) for j in dims}, count=n, position_sum=pos_sum)
+        index.point_to(box, box.conditions, mask)
         while True:
-            keys = index.partner_keys(box)
+            keys = index.partner_keys(box, mask)
             partner = index.partner(box, keys)
             if partner is None:
                 break
-            index.remove(partner)
+            index.unlink(partner)
             node.clusters.remove(partner)
             merged = {j: box.conditions[j] | partner.conditions[j] for j in box.conditions}  # type: ignore[operator]
-            box = Cluster(
-                id=partner.id,
-                conditions=merged,
-                count=box.count + partner.count,
-                position_sum=box.position_sum + partner.position_sum,
-                seq=partner.seq,
-            )
+            # the union takes the partner's identity; of the two objects, the one with more
+            # points keeps them, and only the other's points are pointed at it
+            keep, other = (partner, box) if _size(partner) >= _size(box) else (box, partner)
+            index.point_to(keep, other.conditions, mask)
+            keep.id, keep.seq = partner.id, partner.seq
+            keep.conditions = merged
+            keep.count = box.count + partner.count
+            keep.position_sum = box.position_sum + partner.position_sum
+            box = keep
         node.clusters.append(box)
-        index.add(box, keys)
+        index.link(box, keys)
         self._dense = None
 
     # -- cognition ---------------------------------------------------------------------------
@@ -980,6 +996,11 @@ class IHDRTree:
         return state
 
 
+def _size(cluster: Cluster) -> int:
+    """Points of a box: the product of its value sets."""
+    return math.prod(len(c) for c in cluster.conditions.values())  # type: ignore[arg-type]
+
+
 def _bits(mask: int) -> tuple[int, ...]:
     """The positions of the set bits of a mask, lowest first.
 
@@ -1021,8 +1042,10 @@ def _distinct_rows(
     return first, inverse.reshape(-1), counts
 
 
-def _group_min_max(inverse: np.ndarray, values: np.ndarray, size: int) -> tuple[np.ndarray, np.ndarray]:
-    order = np.argsort(inverse, kind="stable")
+def _group_min_max(
+    order: np.ndarray, inverse: np.ndarray, values: np.ndarray, size: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """Per group of ``inverse``, the least and greatest value (``order`` sorts ``inverse``)."""
     starts = np.searchsorted(inverse[order], np.arange(size))
     ordered = values[order]
     return np.minimum.reduceat(ordered, starts), np.maximum.reduceat(ordered, starts)

@@ -314,8 +314,19 @@ def group_samples(home: Home, policy: Policy, i: int, *, seed: int = 0) -> Sampl
     return samples
 
 
-def policy_samples(home: Home, policy: Policy, *, seed: int = 0) -> Iterator[SampleSet]:
-    """:func:`group_samples` of every group that has services (one made at a time)."""
-    for i, group in enumerate(policy.groups):
-        if group.services:
-            yield group_samples(home, policy, i, seed=seed)
+def policy_samples(home: Home, policy: Policy, *, seed: int = 0, ahead: int = 2) -> Iterator[SampleSet]:
+    """:func:`group_samples` of every group that has services, in group order.
+
+    The next ``ahead`` groups are made in a worker thread while the caller uses the current
+    one (making samples is NumPy and compiled code that releases the GIL; learning them into
+    a tree is Python), so at most ``ahead + 1`` groups' samples are in memory at once.
+    """
+    from concurrent.futures import ThreadPoolExecutor
+
+    todo = [i for i, group in enumerate(policy.groups) if group.services]
+    with ThreadPoolExecutor(max_workers=1) as pool:
+        pending = [pool.submit(group_samples, home, policy, i, seed=seed) for i in todo[:ahead]]
+        for k in range(len(todo)):
+            if k + ahead < len(todo):
+                pending.append(pool.submit(group_samples, home, policy, todo[k + ahead], seed=seed))
+            yield pending.pop(0).result()

@@ -40,7 +40,7 @@ from homecog.learning.qtable import QTable
 from homecog.learning.sarsa import SarsaConfig, run_episodes, seed_rng, train
 from homecog.learning.size import check_size
 
-MIN_SWEEPS = 3
+MIN_SWEEPS = 2
 MAX_SWEEPS = 64
 
 
