@@ -17,12 +17,12 @@ from homecog.errors import QTableError
 from homecog.home import load_home
 from homecog.learning.policy import Policy
 from homecog.learning.qtable import QTable
+from homecog.learning.rollout import greedy_services
 from homecog.learning.sarsa import (
     SarsaConfig,
     choose,
     epsilon,
     greedy_optimal_rate,
-    greedy_services,
     sarsa_update,
     seed_rng,
     train,

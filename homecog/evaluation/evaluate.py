@@ -30,6 +30,7 @@ from homecog.knowledge.pipeline import ensure_policy
 from homecog.knowledge.sample_log import SampleLog
 from homecog.knowledge.samples import SampleSet
 from homecog.knowledge.space import Space, parse_services
+from homecog.learning.size import check_size
 
 Progress = Callable[[str], None]
 
@@ -253,6 +254,7 @@ def run(
     """The whole evaluation (SPEC §9, §11)."""
     start = time.perf_counter()
     check_truth(home, truth)
+    check_size(home, joint=joint)  # before anything that takes time
     if isinstance(scenarios, Path):
         cases = load_scenarios(scenarios, home, truth)
     else:

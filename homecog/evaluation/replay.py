@@ -19,6 +19,7 @@ from homecog.evaluation.methods import METHODS, HoeffdingMethod, TreeMethod
 from homecog.evaluation.scenarios import ratio
 from homecog.home.model import Home
 from homecog.knowledge.pipeline import ensure_policy
+from homecog.learning.size import check_size
 
 Progress = Callable[[str], None]
 USER = "household"
@@ -65,6 +66,7 @@ def replay(
     import time
 
     start = time.perf_counter()
+    check_size(home, joint=joint)  # before anything that takes time
     rows = load_scenarios(events, home, home, events=True)
     policy = ensure_policy(home, joint=joint, progress=progress)
     learning = learn_methods(home, policy, methods, seed=seed, progress=progress)

@@ -302,16 +302,3 @@ def train(
     rate = greedy_optimal_rate(core, q_table.q)
     q_table.greedy_optimal_rate = rate
     return TrainResult(q_table=q_table, episodes=done, steps=steps, seconds=seconds, greedy_optimal_rate=rate)
-
-
-def greedy_services(
-    core: Core, q: np.ndarray, c: int, h: int, n: int | None = None, limit: int = 64
-) -> list[int]:
-    """The services of the greedy roll-out from (c, h, n) until the optimum or ``limit``."""
-    n = core.full_needs(c) if n is None else n
-    out: list[int] = []
-    while core.distance(c, h, n) > 0 and len(out) < limit:
-        a = int(argmax_row(q, core.index(c, h, n)))
-        out.append(a)
-        h, n, *_ = core.step(c, h, n, a)
-    return out
