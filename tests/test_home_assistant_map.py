@@ -156,7 +156,8 @@ def test_unknown_entities_are_named_with_the_nearest_existing_ones() -> None:
         ),
         (
             SECTION.replace("    light: {entity: input_number.light}\n", ""),
-            "studio.yaml: home_assistant.features: no entity for light; every feature but the clock needs one",
+            "studio.yaml: home_assistant.features: no entity for light; every feature but the clock "
+            "needs one",
         ),
         (
             SECTION.replace("    desk_lamp: light.desk_lamp\n", "").replace(
@@ -191,8 +192,8 @@ def test_unknown_entities_are_named_with_the_nearest_existing_ones() -> None:
         ),
         (
             SECTION.replace("relaxing: relax", "relaxing: nap"),
-            "studio.yaml: home_assistant.features.activity.values.relaxing: unknown value 'nap'; expected one "
-            "of work, relax, sleep",
+            "studio.yaml: home_assistant.features.activity.values.relaxing: unknown value 'nap'; "
+            "expected one of work, relax, sleep",
         ),
         (
             SECTION.replace("{entity: cover.blind}", "{entity: lock.blind}"),
@@ -201,8 +202,8 @@ def test_unknown_entities_are_named_with_the_nearest_existing_ones() -> None:
         ),
         (
             SECTION.replace("{entity: cover.blind}", "{entity: lock.blind, on: unlocked, off: locked}"),
-            "studio.yaml: home_assistant.devices.blind: the robot switches blind (iot: true) but domain 'lock' "
-            "has no default services; give turn_on and turn_off",
+            "studio.yaml: home_assistant.devices.blind: the robot switches blind (iot: true) but domain "
+            "'lock' has no default services; give turn_on and turn_off",
         ),
         (
             SECTION.replace("{entity: cover.blind}", "{entity: cover.blind, on: [open, closed]}"),
@@ -235,5 +236,5 @@ def test_a_device_the_robot_does_not_switch_needs_states_only() -> None:
     )
     lamp = home_with(section).home_assistant.device("desk_lamp")
     assert lamp == DeviceEntity("desk_lamp", "binary_sensor.lamp", ("on",), ("off",), None, None)
-    with pytest.raises(ContextError, match="no service switches binary_sensor.lamp"):
+    with pytest.raises(ContextError, match=r"no service switches binary_sensor\.lamp"):
         lamp.service(True)
