@@ -268,34 +268,24 @@ class HomeAssistantSource:
     async def _main(self) -> None:
         self._loop = asyncio.get_running_loop()
         self._task = asyncio.current_task()
-        delay, first = MIN_RECONNECT_DELAY, True
+        delay = MIN_RECONNECT_DELAY
         try:
             while True:
+                first = not self._first.done()  # until start() has its answer
+                connected_before = self.connected_since
                 try:
                     await self._session(first)
-                    delay = MIN_RECONNECT_DELAY
                     self.last_error = "connection closed"
                     log.warning("Home Assistant at %s closed the connection; reconnecting", self.ws_url)
-                except HomeAssistantError as e:
-                    if first:
-                        self._first.set_exception(e)
+                except Exception as e:  # unreachable, refused, dropped mid-session, a failed command
+                    error = e if isinstance(e, HomeAssistantError) else None
+                    self.last_error = str(error) if error else f"Home Assistant at {self.ws_url}: {reason(e)}"
+                    if not self._first.done():  # start() fails with it
+                        self._first.set_exception(error or HomeAssistantError(self.last_error))
                         return
-                    self.last_error = str(e)
-                    log.warning("%s; trying again in %.2g s", e, delay)
-                except Exception as e:  # a dropped connection mid-session, a failed command
-                    if first:
-                        self._first.set_exception(
-                            HomeAssistantError(f"Home Assistant at {self.ws_url}: {reason(e)}")
-                        )
-                        return
-                    self.last_error = reason(e)
-                    log.warning(
-                        "Home Assistant at %s lost (%s); trying again in %.2g s",
-                        self.ws_url,
-                        self.last_error,
-                        delay,
-                    )
-                first = False
+                    log.warning("%s; trying again in %.2g s", self.last_error, delay)
+                if self.connected_since != connected_before:
+                    delay = MIN_RECONNECT_DELAY  # this attempt got through: the backoff starts afresh
                 await asyncio.sleep(delay)
                 delay = min(delay * 2, MAX_RECONNECT_DELAY)
         except asyncio.CancelledError:
