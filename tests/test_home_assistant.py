@@ -267,6 +267,53 @@ def test_homecog_up_says_what_is_wrong_in_one_line(ha: Instance, tmp_path: Path)
     )
 
 
+def test_homecog_up_runs_the_robot_in_home_assistant(
+    ha: Instance, source: HomeAssistantSource, tmp_path: Path
+) -> None:
+    """``homecog up --home-assistant``: the page's API shows Home Assistant's states and the
+    connection, and when Kim starts relaxing in the morning the robot opens the blind and turns
+    the radio on there, as itself."""
+    import urllib.request
+
+    source.wait_ready(TIMEOUT)
+    port = free_port()
+    env = {**os.environ, "HOMECOG_DATA": str(tmp_path / "data"), "HOMECOG_HA_TOKEN": ha.robot_token}
+    up = subprocess.Popen(
+        [sys.executable, "-m", "homecog.cli.main", "up", "--home", str(STUDIO_HA), "--port", str(port),
+         "--db", f"sqlite:///{tmp_path / 'k.sqlite'}", "--home-assistant", ha.url],
+        env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+    )  # fmt: skip
+
+    def get(path: str) -> dict:
+        with urllib.request.urlopen(f"http://127.0.0.1:{port}{path}", timeout=5) as r:
+            return json.load(r)
+
+    def answers() -> bool:
+        try:
+            return get("/api/source")["connected"]
+        except OSError:
+            return up.poll() is not None
+
+    try:
+        wait(answers, "homecog up to serve", timeout=120)
+        assert up.poll() is None
+        status = get("/api/source")
+        assert (status["kind"], status["version"], status["url"]) == ("home_assistant", VERSION, ha.url)
+        assert get("/api/context") == INITIAL
+        ha.server.call(ha.person, "input_select.select_option", "input_select.activity", option="relaxing")
+        for entity, state in (("input_boolean.radio", "on"), ("cover.blind", "open")):
+            wait(
+                lambda e=entity, s=state: ha.server.state(ha.person, e)["state"] == s,
+                f"the robot: {entity} {state}",
+            )
+            assert ha.server.state(ha.person, entity)["context"]["user_id"] == ha.robot_id
+        wait(lambda: get("/api/context")["radio"] == "on", "the page's context")
+    finally:
+        up.terminate()
+        out = up.communicate(timeout=30)[0].decode()
+    assert f"context from Home Assistant {VERSION} at {ha.url}" in out.replace("\n", "")
+
+
 def test_scaffold_writes_a_home_file_of_the_instance(ha: Instance, tmp_path: Path) -> None:
     out = tmp_path / "mine.yaml"
     done = _cli(
@@ -381,6 +428,80 @@ def test_history_keeps_a_person_s_switches_and_leaves_out_the_robot_s(
                     env={"HOMECOG_DATA": str(tmp_path / "data")}, timeout=300)  # fmt: skip
     assert replayed.returncode == 0, replayed.stderr
     assert json.loads(replayed.stdout)["events"] == 2
+
+
+def _copy_recorder(sqlite_file: Path, url: str) -> None:
+    """The tables ha history reads, copied from Home Assistant's SQLite recorder into another
+    database with the column types Home Assistant gives them there (DOUBLE, BLOB/BYTEA)."""
+    from sqlalchemy import (
+        Column,
+        Double,
+        Integer,
+        LargeBinary,
+        MetaData,
+        String,
+        Table,
+        Text,
+        create_engine,
+        select,
+    )
+
+    meta = MetaData()
+
+    def key(name: str) -> Column:
+        return Column(name, Integer, primary_key=True)
+
+    tables = [
+        Table("schema_changes", meta, key("change_id"), Column("schema_version", Integer)),
+        Table("states_meta", meta, key("metadata_id"), Column("entity_id", String(255))),
+        Table("state_attributes", meta, key("attributes_id"), Column("shared_attrs", Text)),
+        Table(
+            "states", meta, key("state_id"), Column("metadata_id", Integer),
+            Column("state", String(255)), Column("last_updated_ts", Double), Column("old_state_id", Integer),
+            Column("attributes_id", Integer), Column("context_user_id_bin", LargeBinary(16)),
+            Column("context_parent_id_bin", LargeBinary(16)),
+        ),
+    ]  # fmt: skip
+    source = create_engine(f"sqlite:///file:{sqlite_file}?mode=ro&uri=true")
+    target = create_engine(url)
+    try:
+        meta.create_all(target)
+        with source.connect() as a, target.begin() as b:
+            for table in tables:
+                rows = [dict(r._mapping) for r in a.execute(select(*table.columns))]
+                if rows:
+                    b.execute(table.insert(), rows)
+    finally:
+        source.dispose()
+        target.dispose()
+
+
+def test_history_reads_a_mariadb_or_postgresql_recorder_alike(
+    ha: Instance, source: HomeAssistantSource, db_url: str, tmp_path: Path
+) -> None:
+    """The recorder of an instance that keeps it in MariaDB or PostgreSQL (here: a copy of the
+    SQLite one's tables) gives the same event file."""
+    from homecog.evaluation.ha_history import read_history
+
+    source.wait_ready(TIMEOUT)
+    time.sleep(0.2)
+    since = datetime.now().astimezone().isoformat()
+    ha.server.call(ha.person, "input_boolean.turn_on", "input_boolean.radio")
+    assert source.switch("blind", True).result(TIMEOUT)
+    ha.server.call(ha.person, "light.turn_on", "light.desk_lamp")
+    wait(
+        lambda: source.snapshot()["desk_lamp"] == "on" and source.snapshot()["blind"] == "on", "the switches"
+    )
+    time.sleep(1.5)
+    home = load_home(STUDIO_HA)
+    first = read_history(
+        home, str(ha.server.recorder), tmp_path / "sqlite.csv", exclude_users=(ha.robot_id,), since=since
+    )
+    assert (first.events, first.devices, first.skipped["by_homecog"]) == (2, {"desk_lamp": 1, "radio": 1}, 1)
+    _copy_recorder(ha.server.recorder, db_url)
+    other = read_history(home, db_url, tmp_path / "other.csv", exclude_users=(ha.robot_id,), since=since)
+    assert (tmp_path / "other.csv").read_text() == (tmp_path / "sqlite.csv").read_text()
+    assert (other.events, other.skipped, other.schema) == (first.events, first.skipped, 42)
 
 
 def test_history_refuses_what_it_cannot_read(ha: Instance, tmp_path: Path) -> None:

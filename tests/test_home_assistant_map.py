@@ -238,3 +238,62 @@ def test_a_device_the_robot_does_not_switch_needs_states_only() -> None:
     assert lamp == DeviceEntity("desk_lamp", "binary_sensor.lamp", ("on",), ("off",), None, None)
     with pytest.raises(ContextError, match=r"no service switches binary_sensor\.lamp"):
         lamp.service(True)
+
+
+def test_the_ha_commands_say_what_is_wrong_in_one_line(
+    capsys: pytest.CaptureFixture[str], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """No instance is needed to get these wrong (tests/test_home_assistant.py has the rest)."""
+    from homecog.cli.main import main
+
+    monkeypatch.delenv("HOMECOG_HA_TOKEN", raising=False)
+    closed = "http://127.0.0.1:9"  # discard: nothing listens there
+    studio_ha = str(HOMES / "studio_ha.yaml")
+    out = str(tmp_path / "out.yaml")
+    cases = [
+        (
+            ["ha", "scaffold", "--home-assistant", closed, "--out", out],
+            "no token for Home Assistant at " + closed,
+        ),
+        (
+            ["ha", "scaffold", "--home-assistant", closed, "--ha-token", "t", "--out", out],
+            "Home Assistant at ws://127.0.0.1:9/api/websocket cannot be reached: Cannot connect to host",
+        ),
+        (
+            ["ha", "scaffold", "--home-assistant", "homeassistant.local", "--ha-token", "t", "--out", out],
+            "Home Assistant URL 'homeassistant.local': expected http(s)://host:port",
+        ),
+        (
+            ["ha", "scaffold", "--home-assistant", closed, "--out", str(tmp_path)],
+            f"--out {tmp_path}: is a directory",
+        ),
+        (
+            ["ha", "history", "--recorder", str(tmp_path / "no.db"), "--home", studio_ha, "--out", out],
+            f"recorder {tmp_path / 'no.db'}: no such file",
+        ),
+        (
+            ["ha", "history", "--recorder", "x.db", "--home", "paper", "--out", out],
+            "paper.yaml: no home_assistant section (SPEC §12); see homecog ha scaffold",
+        ),
+        (
+            [
+                "ha",
+                "history",
+                "--recorder",
+                "x.db",
+                "--home",
+                studio_ha,
+                "--out",
+                out,
+                "--since",
+                "yesterday",
+            ],
+            "--since 'yesterday': expected an ISO 8601 date or time, e.g. 2024-03-01T07:00",
+        ),
+    ]
+    for argv, message in cases:
+        code = main(argv)
+        captured = capsys.readouterr()
+        assert (code, captured.out) == (2, ""), argv
+        assert captured.err.startswith("homecog: error: ") and message in captured.err, captured.err
+        assert captured.err.count("\n") == 1, captured.err
