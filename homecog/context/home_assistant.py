@@ -268,7 +268,7 @@ class HomeAssistantSource:
     async def _main(self) -> None:
         self._loop = asyncio.get_running_loop()
         self._task = asyncio.current_task()
-        delay = MIN_RECONNECT_DELAY
+        delay, logged = MIN_RECONNECT_DELAY, None
         try:
             while True:
                 first = not self._first.done()  # until start() has its answer
@@ -283,9 +283,12 @@ class HomeAssistantSource:
                     if not self._first.done():  # start() fails with it
                         self._first.set_exception(error or HomeAssistantError(self.last_error))
                         return
-                    log.warning("%s; trying again in %.2g s", self.last_error, delay)
+                    # an outage logs once, not every attempt; the HMI shows it as long as it lasts
+                    level = logging.DEBUG if self.last_error == logged else logging.WARNING
+                    log.log(level, "%s; trying again in %.2g s", self.last_error, delay)
+                    logged = self.last_error
                 if self.connected_since != connected_before:
-                    delay = MIN_RECONNECT_DELAY  # this attempt got through: the backoff starts afresh
+                    delay, logged = MIN_RECONNECT_DELAY, None  # it got through: the backoff starts afresh
                 await asyncio.sleep(delay)
                 delay = min(delay * 2, MAX_RECONNECT_DELAY)
         except asyncio.CancelledError:
@@ -322,8 +325,13 @@ class HomeAssistantSource:
             if not first:
                 self.reconnects += 1
             self._connected.set()
-            log.info(
-                "Home Assistant %s at %s: following %d entities", self.version, self.url, len(self._readers)
+            # back after a loss is worth the same level as the loss was
+            log.log(
+                logging.INFO if first else logging.WARNING,
+                "Home Assistant %s at %s: following %d entities",
+                self.version,
+                self.url,
+                len(self._readers),
             )
             if first:
                 self._first.set_result(None)
