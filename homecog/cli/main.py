@@ -21,6 +21,7 @@ from rich.table import Table
 # Typer 0.29 carries its own copy of click; its exceptions live there (typer is pinned).
 from typer._click import exceptions as click_errors
 
+from homecog.cli.ha import ha_app
 from homecog.cli.output import emit_json, progress_bar, stdout
 from homecog.errors import HomecogError
 from homecog.home import Home, load_home
@@ -36,6 +37,7 @@ app = typer.Typer(
 )
 home_app = typer.Typer(help="Show or check home definitions.", no_args_is_help=True)
 app.add_typer(home_app, name="home")
+app.add_typer(ha_app, name="ha")
 
 HomeOption = Annotated[str, typer.Option("--home", help="A built-in home name or the path of a YAML file.")]
 JsonOption = Annotated[bool, typer.Option("--json", help="Print one JSON object on stdout.")]
@@ -657,15 +659,22 @@ def simulate(
     home: HomeOption = "paper",
     context: PlanContextOption = None,
     png: Annotated[Path | None, typer.Option("--png", help="Draw the trajectory into this PNG file.")] = None,
+    bag: Annotated[
+        Path | None,
+        typer.Option("--bag", help="Also write the run as a ROS 2 bag (MCAP) into this new folder."),
+    ] = None,
     json: JsonOption = False,
 ) -> None:
     """Plan the services and carry the plan out with a simulated robot on the floor plan."""
     from homecog.simulation import draw_trajectory
     from homecog.simulation import simulate as run_simulation
+    from homecog.simulation.bag import check_bag_folder, write_bag
 
     h = load_home(home)
     if png is not None:
         _check_writable(png)
+    if bag is not None:
+        check_bag_folder(bag)
     result = _plan(h, services, context)
     sim = run_simulation(h, result.actions, devices=_initial_devices(h, context))
     data = sim.as_dict()
@@ -673,6 +682,7 @@ def simulate(
     if png is not None:
         draw_trajectory(h.layout, sim, png)
         data["png"] = str(png)
+    data["bag"] = str(write_bag(h, sim, bag)) if bag is not None else None
     if json:
         emit_json(data)
         return
@@ -686,6 +696,8 @@ def simulate(
     stdout.print(f"{len(sim.timeline)} actions in {sim.seconds:.1f} s, {sim.distance_m:.2f} m driven")
     if png is not None:
         stdout.print(f"trajectory: {png}")
+    if bag is not None:
+        stdout.print(f"ROS 2 bag: {bag}")
 
 
 def _initial_devices(h: Home, context: str | None) -> dict[str, bool]:
@@ -730,6 +742,15 @@ def up(
             help="Mirror the simulated home on this MQTT broker: its states go out, commands come in."
         ),
     ] = None,
+    home_assistant: Annotated[
+        str | None,
+        typer.Option(
+            "--home-assistant", help="Take the context from this Home Assistant (http://host:8123) instead."
+        ),
+    ] = None,
+    ha_token: Annotated[
+        str | None, typer.Option("--ha-token", help="Its access token (default: $HOMECOG_HA_TOKEN).")
+    ] = None,
 ) -> None:
     """Start the robot: train or reuse the Q table, build or reuse the tree, serve the HMI."""
     import gc
@@ -751,12 +772,23 @@ def up(
         raise UsageProblemError("--token must be at least 8 characters")
     if publish is not None and (mqtt is not None or speed == 0):
         raise UsageProblemError("--publish mirrors the simulated home; it needs --speed > 0 and no --mqtt")
+    if home_assistant is not None and (mqtt is not None or publish is not None):
+        raise UsageProblemError(
+            "--home-assistant is the home's context; it goes with neither --mqtt nor --publish"
+        )
     h = load_home(home)
     if host not in LOCAL_HOSTS and token is None:
         token = secrets.token_urlsafe(24)
         stdout.print(f"token for writes (shown once): {token}")
     say = stdout.print
     with contextlib.ExitStack() as stack:
+        if home_assistant is not None:  # first: a wrong URL, token or entity fails before any training
+            from homecog.context.home_assistant import HomeAssistantSource
+
+            token_ha = ha_token or os.environ.get("HOMECOG_HA_TOKEN")
+            ha_source = HomeAssistantSource(h, home_assistant, token=token_ha).start()
+            stack.callback(ha_source.stop)
+            say(f"context from Home Assistant {ha_source.version} at {home_assistant}")
         store = Store(db, h)
         stack.callback(store.close)
         tree = open_tree(h, store, progress=lambda m: say(m, style="dim"))
@@ -771,6 +803,9 @@ def up(
                 f"context from {mqtt}: topics homecog/{h.name}/state/<name>, "
                 f"commands to homecog/{h.name}/command/<device>"
             )
+        if home_assistant is not None:
+            source = ha_source
+            ha_source.on_change = lambda snapshot: runtime.publish("context", snapshot)
         runtime = Runtime(home=h, store=store, tree=tree, source=source, token=token)
         if publish is not None:
             from homecog.context.mqtt import MqttPublisher
@@ -785,7 +820,7 @@ def up(
             )
         say(f"knowledge: {redact(store.url)} ({store.experience_count():,} experiences)", style="dim")
         say(f"homecog is up: http://{host if ':' not in host else f'[{host}]'}:{port}")
-        live = (speed or None) if mqtt is None else 1.0  # with a broker the clock is the home's own
+        live = (speed or None) if mqtt is None and home_assistant is None else 1.0  # a real home's own clock
         gc.freeze()  # the tree lives as long as the server: keep the collector from walking it
         uvicorn.run(
             create_app(runtime, speed=live),

@@ -19,10 +19,13 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Literal
+from typing import TYPE_CHECKING, Literal
 
 from homecog.errors import ContextError
 from homecog.home.layout import Layout
+
+if TYPE_CHECKING:  # it imports this module
+    from homecog.home.home_assistant import HomeAssistantMap
 
 FeatureKind = Literal["clock", "numeric", "categorical"]
 ON, OFF = True, False
@@ -257,6 +260,7 @@ class Home:
     rewards: Rewards = field(default_factory=Rewards)
     layout: Layout | None = None
     routine: object | None = None
+    home_assistant: HomeAssistantMap | None = None  # where it lives in Home Assistant (SPEC §12)
     description: str | None = None
     source: str = "<memory>"
     content_hash: str = ""

@@ -142,6 +142,18 @@ def create_app(runtime: Runtime, *, speed: float | None = None) -> ASGIApp:
         """The current context."""
         return runtime.context()
 
+    @app.get("/api/source")
+    def get_source() -> dict[str, Any]:
+        """Where the context comes from (``simulated``, ``manual``, ``mqtt``, ``home_assistant``)
+        and whether it is connected now; Home Assistant adds its version, reconnections, the
+        states skipped and the last error."""
+        status = getattr(runtime.source, "status", None)
+        if callable(status):
+            return status()
+        kinds = {"SimulatedHome": "simulated", "ManualSource": "manual", "MqttSource": "mqtt"}
+        name = type(runtime.source).__name__
+        return {"kind": kinds.get(name, name), "connected": bool(getattr(runtime.source, "connected", True))}
+
     @app.put("/api/context", dependencies=[Depends(writer)])
     def put_context(body: ContextIn) -> dict[str, str]:
         """Manual mode: change features or devices; answers the whole new context."""
