@@ -55,6 +55,8 @@ import numpy as np
 
 from homecog.errors import ContextError
 from homecog.home.model import Home, format_clock, format_number
+from homecog.knowledge.group_index import LIMIT_BYTES as GROUP_INDEX_BYTES
+from homecog.knowledge.group_index import GroupIndex
 from homecog.knowledge.space import Point, Space
 
 MODES = ("multi", "paper")
@@ -328,6 +330,7 @@ class IHDRTree:
         # multi mode: _dense[point, a] is the index in node a's clusters of the cluster that
         # responds at that point (-1: none); built on demand, dropped when the tree changes
         self._dense: np.ndarray | None = None
+        self._gindex: GroupIndex | bool | None = None  # large homes: see _group_index
         self._before: list[set[int]] | None = None  # services that must precede each service
         self._label_table: list[list[str]] | None = None  # see _labels
         self._described: dict[tuple[Any, ...], dict[str, str]] = {}  # see describe
@@ -614,7 +617,7 @@ class IHDRTree:
             box = keep
         node.clusters.append(box)
         index.link(box, keys)
-        self._dense = None
+        self._dense = self._gindex = None
 
     # -- cognition ---------------------------------------------------------------------------
     def _dense_table(self) -> np.ndarray:
@@ -674,21 +677,59 @@ class IHDRTree:
                     else:
                         hits.append((node, node.clusters[i]))
             return self._ordered(hits), idle
+        index = self._group_index() if self.mode == "multi" else None
+        if index is not None:
+            hits = self._group_hits(index, p, user)
+            return self._ordered(hits), False if hits else self._idle_responds(p)
         for category in self.root.children:
             # a category is searched when its cluster responds (paper); in multi mode a
             # category keeps no cluster of its own and every category is searched
             if self.mode == "paper" and category.clusters and not category.clusters[0].matches(p):
                 continue
             for node in category.children:
+                if node is self._idle:
+                    continue  # asked only when no service answers
                 user_hit = self._user_match(user, node.service, p) if user is not None else None
                 cluster = user_hit if user_hit is not None else self._shared_match(node, p)
                 if cluster is None or cluster.polarity < 0:
                     continue
-                if node is self._idle:
-                    idle = True
-                else:
-                    hits.append((node, cluster))
-        return self._ordered(hits), idle
+                hits.append((node, cluster))
+        return self._ordered(hits), False if hits else self._idle_responds(p)
+
+    def _idle_responds(self, p: Point) -> bool:
+        """Whether "nothing to do" answers a context (its category's cluster too, in paper mode)."""
+        category = self._idle.parent
+        assert category is not None
+        if self.mode == "paper" and category.clusters and not category.clusters[0].matches(p):
+            return False
+        return self._shared_match(self._idle, p) is not None
+
+    def _group_index(self) -> GroupIndex | None:
+        """The group tables of a large multi tree (built on first use), or None where they do not
+        fit (:mod:`homecog.knowledge.group_index`)."""
+        if self._gindex is None:
+            fits = GroupIndex.size(self.home) <= GROUP_INDEX_BYTES
+            self._gindex = GroupIndex(self.home, self._services) if fits else False
+        return self._gindex or None
+
+    def _group_hits(self, index: GroupIndex, p: Point, user: str | None) -> list[tuple[Node, Cluster]]:
+        services, found = index.responding(p.codes)
+        chosen: dict[int, Cluster] = {}
+        for a, i in zip(services.tolist(), found.tolist(), strict=True):
+            chosen[a] = self._services[a].clusters[i]
+        for a in index.outside:
+            cluster = self._shared_match(self._services[a], p)
+            if cluster is not None:
+                chosen[a] = cluster
+        if user is not None:
+            for a in self._users.get(user, {}):
+                user_hit = self._user_match(user, a, p)
+                if user_hit is not None:
+                    if user_hit.polarity > 0:
+                        chosen[a] = user_hit
+                    else:
+                        chosen.pop(a, None)
+        return [(self._services[a], c) for a, c in sorted(chosen.items())]
 
     def _ordered(self, hits: list[tuple[Node, Cluster]]) -> list[tuple[Node, Cluster]]:
         """By priority (mean position), except that a service the learned sequences always put
@@ -910,14 +951,14 @@ class IHDRTree:
         self._next_id = max(self._next_id, state.get("next_id", 0))
         self._seq = max(self._seq, state.get("seq", 0))
         self.n_experiences = state.get("n_experiences", 0)
-        self._dense = None
+        self._dense = self._gindex = None
         self._before = None
 
     def _restore_shared(self, node: Node, cluster: Cluster) -> None:
         node.clusters.append(cluster)
         if self.mode == "multi" and node.id in self._index:
             self._index[node.id].add(cluster)
-        self._dense = None
+        self._dense = self._gindex = None
 
     def _restore_user(self, user: str, service: int, cluster: Cluster) -> None:
         self._users.setdefault(user, {}).setdefault(service, []).append(cluster)
@@ -991,7 +1032,7 @@ class IHDRTree:
 
     def __getstate__(self) -> dict[str, Any]:
         state = copy.copy(self.__dict__)
-        state["_dense"] = None  # caches, rebuilt on demand
+        state["_dense"] = state["_gindex"] = None  # caches, rebuilt on demand
         state["_before"] = None
         return state
 
