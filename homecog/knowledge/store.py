@@ -33,6 +33,7 @@ from sqlalchemy import (
     DateTime,
     Double,
     ForeignKey,
+    Index,
     Integer,
     LargeBinary,
     String,
@@ -139,6 +140,7 @@ class ExperienceRow(Base):
     """The append-only experience log: sample batches, single samples and corrections."""
 
     __tablename__ = "experiences"
+    __table_args__ = (Index("ix_experiences_kind_user_id", "kind", "user", "id"),)  # the history
     id: Mapped[int] = mapped_column(Integer, primary_key=True, autoincrement=True)
     kind: Mapped[str] = mapped_column(String(16))
     user: Mapped[str | None] = mapped_column(String(200), nullable=True)
