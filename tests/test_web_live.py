@@ -16,6 +16,7 @@ from fastapi.testclient import TestClient
 from servers import fresh_database, server_url
 from webserver import build_studio, copy_database, get, homecog_up, send, serve
 
+from homecog.errors import ContextError
 from homecog.home import load_home
 from homecog.knowledge.pipeline import build
 from homecog.knowledge.store import Store
@@ -193,3 +194,29 @@ def test_homecog_up_takes_a_brokers_retained_states_that_come_at_once(studio, tm
     assert main(args) == 0
     assert failures == []
     assert ("context", {k: str(v) for k, v in WORK.items()}) in published
+
+
+def test_a_context_from_a_broker_cannot_be_set_by_hand_and_a_missing_state_is_a_503(studio, tmp_path):
+    class Broker:  # what homecog up --mqtt has: a snapshot, switches, no set_context
+        values: dict[str, str] | None = None
+
+        def snapshot(self) -> dict[str, str]:
+            if self.values is None:
+                raise ContextError("MQTT: no state received yet for time, light")
+            return dict(self.values)
+
+        def switch(self, device: str, on: bool) -> None:
+            pass
+
+    home_path, db = studio
+    client, runtime = _client(home_path, copy_database(db, tmp_path / "k.sqlite"))
+    runtime.source = Broker()
+    r = client.get("/api/context")
+    assert r.status_code == 503 and r.json() == {"detail": "MQTT: no state received yet for time, light"}
+    runtime.source.values = {k: str(v) for k, v in WORK.items()}
+    assert client.get("/api/context").json() == {**WORK, "light": 50.0}
+    r = client.put("/api/context", json={"values": {"radio": "on"}})
+    assert r.status_code == 409 and r.json() == {
+        "detail": "the context comes from a broker; it cannot be set by hand"
+    }
+    runtime.store.close()

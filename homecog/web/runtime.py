@@ -31,7 +31,7 @@ from homecog.web.models import json_context
 
 
 class FixedContextError(HomecogError):
-    """The context comes from a simulator or a broker: it cannot be set by hand."""
+    """The context comes from a source that cannot be set by hand (a broker)."""
 
 
 class ManualSource:
@@ -97,9 +97,7 @@ class Runtime:
         them); :class:`FixedContextError` when the source cannot be set by hand."""
         setter = getattr(self.source, "set_context", None)
         if setter is None:
-            raise FixedContextError(
-                "the context comes from the simulator or a broker; it cannot be set by hand"
-            )
+            raise FixedContextError("the context comes from a broker; it cannot be set by hand")
         unknown = [k for k in values if k not in self.space.names]
         if unknown:
             raise ContextError(f"unknown feature or device {unknown[0]!r}")

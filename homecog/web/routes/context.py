@@ -25,8 +25,8 @@ def router(models: HomeModels) -> APIRouter:
 
     @r.put("/api/context", response_model=models.context, responses=responses(409, 413, 422, 503))
     def put_context(body: models.context_in, runtime: RuntimeDep) -> Any:
-        """Manual mode (``homecog up --speed 0``): change some features or devices; answers the
-        whole new context. 409 where the context comes from the simulator or a broker."""
+        """Set some features or devices by hand (the simulated home holds them); answers the
+        whole new context. 409 where the context comes from a broker."""
         try:
             return runtime.set_context(body.values)
         except FixedContextError as e:
