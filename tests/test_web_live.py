@@ -119,6 +119,33 @@ def test_the_history_outlives_a_killed_server(studio, tmp_path):
     assert everyone["total"] == 3 and [c["want"] for c in everyone["corrections"]] == wants[1:]
 
 
+def test_off_loopback_homecog_up_makes_a_token_that_every_endpoint_needs(studio, tmp_path):
+    home_path, db = studio
+    url = copy_database(db, tmp_path / "knowledge.sqlite")
+    with homecog_up(home_path, url, tmp_path / "data", host="127.0.0.2") as (base, _):
+        log = next((tmp_path / "data").glob("up-*.log")).read_text()
+        token = log.split("token for every /api request (shown once):")[1].split()[0]
+        assert len(token) >= 30
+        for path in ("/api/context", "/api/history", "/api/home"):
+            with pytest.raises(urllib.error.HTTPError) as refused:
+                get(base + path)
+            assert refused.value.code == 401
+            assert get(base + path, token=token) is not None
+        status, answer = send(f"{base}/api/cognize", {"context": WORK})
+        assert status == 401 and answer["detail"].startswith("this server needs its token")
+        status, answer = send(f"{base}/api/cognize", {"context": WORK}, token=token)
+        assert status == 200 and "LampOn" in answer["services"]  # the fast path, with the token
+
+
+def test_a_bad_token_from_the_environment_is_one_line(monkeypatch, capsys):
+    from homecog.cli.main import main
+
+    monkeypatch.setenv("HOMECOG_TOKEN", "short")
+    assert main(["up", "--speed", "0"]) == 2
+    err = capsys.readouterr().err
+    assert err == "homecog: error: token (or $HOMECOG_TOKEN): string should have at least 8 characters\n"
+
+
 def test_the_event_stream_takes_the_token_as_a_query_parameter(studio, tmp_path):
     home_path, db = studio
     token = "stream-token"

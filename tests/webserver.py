@@ -85,16 +85,19 @@ def send(url: str, body: object, token: str | None = None, method: str = "POST")
 
 
 @contextmanager
-def homecog_up(home: Path, db: str, data: Path, *args: str) -> Iterator[tuple[str, subprocess.Popen[bytes]]]:
-    """``homecog up --speed 0`` on a free port of 127.0.0.1 until the block ends: (base URL, process)."""
+def homecog_up(
+    home: Path, db: str, data: Path, *args: str, host: str = "127.0.0.1"
+) -> Iterator[tuple[str, subprocess.Popen[bytes]]]:
+    """``homecog up --speed 0`` on a free port until the block ends: (base URL, process); what it
+    prints goes to ``data/up-<port>.log``."""
     port = free_port()
     command = [sys.executable, "-m", "homecog.cli.main", "up", "--home", str(home), "--db", db]
-    command += ["--port", str(port), "--speed", "0", *args]
+    command += ["--host", host, "--port", str(port), "--speed", "0", *args]
     env = {**os.environ, "HOMECOG_DATA": str(data)}
     data.mkdir(parents=True, exist_ok=True)
     log = (data / f"up-{port}.log").open("wb")  # a file, not a pipe nobody reads while it serves
     proc = subprocess.Popen(command, env=env, stdout=log, stderr=subprocess.STDOUT)
-    base = f"http://127.0.0.1:{port}"
+    base = f"http://{host}:{port}"
     try:
         deadline = time.monotonic() + 60
         while True:
