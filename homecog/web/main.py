@@ -63,6 +63,7 @@ def create_app(runtime: Runtime, settings: Settings | None = None) -> ASGIApp:
     )
     app.state.runtime, app.state.settings, app.state.models = runtime, settings, models
     errors.install(app, runtime.home)
+    app.include_router(page.router)  # first: after cognition, the most asked for
     guarded: dict[str, Any] = {}
     if settings.token is not None:
         guarded = {"dependencies": [Security(require_token)], "responses": errors.responses(401)}
@@ -76,7 +77,6 @@ def create_app(runtime: Runtime, settings: Settings | None = None) -> ASGIApp:
             "responses": errors.responses(401, stream=True),
         }
     app.include_router(events.router, **guarded)
-    app.include_router(page.router)
     # in front of FastAPI's own middleware stack, whose error middleware alone wraps every send
     fast = CognizeFastPath(app, runtime, models.cognize_in, settings.token)
     return BodyLimit(fast, limit=settings.max_body)
