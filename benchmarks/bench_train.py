@@ -25,7 +25,7 @@ from rich.table import Table
 from homecog.environment.core import Core, greedy_outcomes
 from homecog.home import load_home
 from homecog.learning.qtable import QTable
-from homecog.learning.sarsa import SarsaConfig, run_episodes, seed_rng, train
+from homecog.learning.sarsa import NO_STARTS, SarsaConfig, run_episodes, seed_rng, train
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -34,12 +34,12 @@ import sys, time
 from homecog.environment.core import Core
 from homecog.home import load_home
 from homecog.learning.qtable import QTable
-from homecog.learning.sarsa import run_episodes, seed_rng
+from homecog.learning.sarsa import NO_STARTS, run_episodes, seed_rng
 core = Core(load_home("paper"))
 table = QTable.empty(core)
 start = time.perf_counter()
 steps = run_episodes(core.tables, table.q, table.tried, int(sys.argv[1]), 0, 1.0, 0.2, 2.0, 0.0, 30,
-                     seed_rng(0))
+                     seed_rng(0), NO_STARTS)
 print(steps, time.perf_counter() - start)
 """
 
@@ -63,7 +63,7 @@ def kernel_rate(core: Core, episodes: int, repeats: int) -> tuple[float, int]:
         table = QTable.empty(core)
         start = time.perf_counter()
         steps = run_episodes(
-            core.tables, table.q, table.tried, episodes, 0, 1.0, 0.2, 2.0, 0.0, 30, seed_rng(0)
+            core.tables, table.q, table.tried, episodes, 0, 1.0, 0.2, 2.0, 0.0, 30, seed_rng(0), NO_STARTS
         )
         rates.append(steps / (time.perf_counter() - start))
     return statistics.median(rates), steps

@@ -34,3 +34,8 @@ class HomeTooLargeError(HomecogError):
 class PlanningError(HomecogError):
     """A request that cannot be planned or carried out: an unknown service, a home without a
     layout, a place inside a wall or out of the robot's reach."""
+
+
+class HomeAssistantError(HomecogError):
+    """A Home Assistant instance that cannot be used: a bad URL, one that cannot be reached, a
+    refused token, entities it does not have, or a recorder database of a schema we cannot read."""

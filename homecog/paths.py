@@ -21,6 +21,7 @@ def data_dir() -> Path:
     return Path(env).expanduser() if env else user_data_path("homecog", appauthor=False)
 
 
-def q_table_path(home: Home) -> Path:
-    """The cached Q table of a home."""
-    return data_dir() / "qtables" / f"{home.name}-{home.content_hash[:16]}.npz"
+def q_table_path(home: Home, *, joint: bool = False) -> Path:
+    """The cached Q tables of a home: learned group by group, or (``joint``) as one table."""
+    suffix = "-joint" if joint else ""
+    return data_dir() / "qtables" / f"{home.name}-{home.content_hash[:16]}{suffix}.npz"

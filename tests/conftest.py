@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import sys
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -9,7 +10,7 @@ import pytest
 from servers import fresh_database
 
 from homecog.environment.core import Core
-from homecog.home import Home, load_home
+from homecog.home import Home, load_home, load_home_text
 
 HOMES = Path(__file__).parent / "homes"
 
@@ -28,6 +29,15 @@ def paper() -> Home:
 @pytest.fixture(scope="session")
 def paper_core(paper: Home) -> Core:
     return Core(paper)
+
+
+@pytest.fixture(scope="session")
+def rooms8() -> Home:
+    """A home of 8 rooms of 6 devices (48 devices), from the scale benchmark's generator."""
+    sys.path.insert(0, str(Path(__file__).parent.parent / "benchmarks"))
+    from homes import home_text
+
+    return load_home_text(home_text(8), "rooms8.yaml")
 
 
 @pytest.fixture(scope="session")

@@ -78,6 +78,7 @@ def test_every_error_is_documented_with_the_one_model(schema):
         ("GET", "/api/home"),
         ("GET", "/api/context"),
         ("PUT", "/api/context"),
+        ("GET", "/api/source"),
         ("POST", "/api/cognize"),
         ("POST", "/api/corrections"),
         ("POST", "/api/plan"),
@@ -215,6 +216,6 @@ def test_schemathesis_finds_nothing(studio_built, tmp_path, token):
     suite = ET.parse(report).getroot()
     cases = suite.iter("testcase")
     names = sorted(c.get("name", "") for c in cases)
-    assert len(names) == 8, names  # every operation
+    assert len(names) == 9, names  # every operation
     assert sum(int(s.get("failures", 0)) + int(s.get("errors", 0)) for s in suite.iter("testsuite")) == 0
     assert "No issues found" in run.stdout

@@ -14,13 +14,15 @@ import pytest
 
 from homecog.environment.core import greedy_outcomes
 from homecog.errors import QTableError
+from homecog.home import load_home
+from homecog.learning.policy import Policy
 from homecog.learning.qtable import QTable
+from homecog.learning.rollout import greedy_services
 from homecog.learning.sarsa import (
     SarsaConfig,
     choose,
     epsilon,
     greedy_optimal_rate,
-    greedy_services,
     sarsa_update,
     seed_rng,
     train,
@@ -216,4 +218,5 @@ def test_train_command_json(tmp_path):
     assert set(data) >= {"episodes", "steps", "seconds", "steps_per_second", "greedy_optimal_rate", "q_path"}
     assert data["episodes"] == 20000 and data["q_path"] == str(out)
     assert data["greedy_optimal_rate"] >= 0.99
-    assert QTable.load(out).episodes == 20000
+    policy = Policy.load(out, load_home(ROOT / "tests/homes/studio.yaml"))
+    assert policy.episodes == 20000 and not policy.joint

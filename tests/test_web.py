@@ -70,6 +70,7 @@ def test_home_and_context(client, runtime):
     }
     # what GET gives, POST takes: the context round-trips
     assert client.post("/api/cognize", json={"context": client.get("/api/context").json()}).status_code == 200
+    assert client.get("/api/source").json() == {"kind": "manual", "connected": True}
 
 
 def test_cognize_answers_as_the_tree(client, runtime):
@@ -218,6 +219,7 @@ TOKEN = "s3cret-token"
         ("GET", "/api/home", None),
         ("GET", "/api/context", None),
         ("PUT", "/api/context", {"values": {"radio": "on"}}),
+        ("GET", "/api/source", None),
         ("POST", "/api/cognize", {"context": WORK}),
         ("POST", "/api/corrections", {"context": WORK, "want": ["LampOn"], "user": "kim"}),
         ("POST", "/api/plan", {"services": ["BringTea"], "context": WORK}),

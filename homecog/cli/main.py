@@ -21,6 +21,7 @@ from rich.table import Table
 # Typer 0.29 carries its own copy of click; its exceptions live there (typer is pinned).
 from typer._click import exceptions as click_errors
 
+from homecog.cli.ha import ha_app
 from homecog.cli.output import emit_json, progress_bar, stdout
 from homecog.errors import HomecogError
 from homecog.home import Home, load_home
@@ -36,6 +37,7 @@ app = typer.Typer(
 )
 home_app = typer.Typer(help="Show or check home definitions.", no_args_is_help=True)
 app.add_typer(home_app, name="home")
+app.add_typer(ha_app, name="ha")
 
 HomeOption = Annotated[str, typer.Option("--home", help="A built-in home name or the path of a YAML file.")]
 JsonOption = Annotated[bool, typer.Option("--json", help="Print one JSON object on stdout.")]
@@ -59,10 +61,10 @@ def _when(home: Home, cond: Any) -> str:
 
 
 def home_summary(home: Home) -> dict[str, Any]:
-    """Sizes of a home's spaces (used by ``home show`` and ``home check``)."""
-    from homecog.environment.core import Core
+    """Sizes of a home's spaces (used by ``home show`` and ``home check``): the joint space, and
+    the independent groups the learner splits it into (SPEC §4.1)."""
+    from homecog.learning.size import sizes
 
-    core = Core(home)
     return {
         "name": home.name,
         "source": home.source,
@@ -71,10 +73,13 @@ def home_summary(home: Home) -> dict[str, Any]:
         "contexts": home.context_count,
         "devices": len(home.devices),
         "services": len(home.services),
-        "start_states": core.n_start_states(),
-        "states": core.n_states,
-        "q_table_bytes": core.table_bytes(),
+        **sizes(home),
     }
+
+
+def _big(n: int) -> str:
+    """A count as people read it: ``663,552``, or ``1.3e+62`` past a trillion."""
+    return f"{n:,}" if n < 10**12 else f"{n:.2g}"
 
 
 @home_app.command("show")
@@ -87,9 +92,12 @@ def home_show(home: HomeOption = "paper", json: JsonOption = False) -> None:
     s = home_summary(h)
     stdout.print(f"[bold]{h.name}[/bold] ({h.source}) — {h.description or ''}")
     stdout.print(
-        f"{s['contexts']:,} contexts × {2 ** s['devices']:,} device states = "
-        f"{s['start_states']:,} start states; {s['states']:,} states with pending needs; "
-        f"hash {h.content_hash[:12]}"
+        f"{s['contexts']:,} contexts × 2^{s['devices']} device states = {_big(s['start_states'])} start "
+        f"states; {_big(s['states'])} states with pending needs; hash {h.content_hash[:12]}"
+    )
+    stdout.print(
+        f"learned in {s['groups']} independent groups, {s['group_states']:,} states in all; the largest, "
+        f"{s['largest_group']}, has {s['largest_group_states']:,}"
     )
 
     t = Table(title="Context features (code / normalized, as Table 1)", title_justify="left")
@@ -140,9 +148,11 @@ def home_check(
     file: Annotated[str, typer.Argument(help="The home file to validate.")], json: JsonOption = False
 ) -> None:
     """Validate a home file; report its size and any start state that cannot reach its optimum."""
-    from homecog.environment.core import Core, solvable_start_states
+    from homecog.environment.conflicts import find_conflicts
+    from homecog.learning.size import check_size, describe
 
     h = load_home(file)
+    size = check_size(h)
     if h.layout is not None:  # every place the robot may be sent to must be reachable
         from homecog.simulation import plan_path
 
@@ -153,22 +163,30 @@ def home_check(
         for target in targets:
             plan_path(h.layout, h.layout.robot, target)
     summary = home_summary(h)
-    solvable = solvable_start_states(Core(h).tables)
-    stuck = int((~solvable).sum())
-    summary["unsolvable_start_states"] = stuck
+    report = find_conflicts(h)
+    summary["unsolvable_start_states"] = report.stuck
+    summary["conflicts"] = [
+        {"group": c.group.label, "stuck": c.stuck, "start_states": c.start_states, "example": c.example}
+        for c in report.groups
+    ]
     if json:
         emit_json({"ok": True, **summary})
         return
     stdout.print(
         f"ok: {h.source}: home '{h.name}': {summary['features']} features, "
         f"{summary['contexts']:,} contexts, {summary['devices']} devices, "
-        f"{summary['services']} services, {summary['states']:,} states"
+        f"{summary['services']} services; {describe(size)}"
     )
-    if stuck:
+    if report.stuck:
         stdout.print(
-            f"warning: {stuck:,} of {summary['start_states']:,} start states cannot reach the "
-            "optimum without a prohibited or useless service (conflicting rules)"
+            f"warning: {_big(report.stuck)} of {_big(report.start_states)} start states cannot reach the "
+            "optimum without a prohibited or useless service (conflicting rules):"
         )
+        for c in report.groups:
+            example = ", ".join(f"{k}={v}" for k, v in c.example.items())
+            stdout.print(
+                f"  {c.group.label}: {c.stuck:,} of its {c.start_states:,} start states, e.g. {example}"
+            )
 
 
 # -- homecog train -----------------------------------------------------------------------------
@@ -190,26 +208,35 @@ def _check_writable(path: Path) -> None:
 @app.command()
 def train(
     home: HomeOption = "paper",
-    episodes: Annotated[int | None, typer.Option(help="Episodes (default 3,000,000).")] = None,
+    episodes: Annotated[
+        int | None,
+        typer.Option(
+            help="Episodes: in all, split over the groups by size (default: sweeps until every "
+            "group's policy is stable); with --joint, 3,000,000 by default."
+        ),
+    ] = None,
     seed: Annotated[int, typer.Option(help="Seed; a run is reproducible from it.")] = 0,
     alpha: Annotated[float | None, typer.Option(help="Learning rate α (default 1.0).")] = None,
     gamma: Annotated[float | None, typer.Option(help="Discount γ (default 0.2).")] = None,
     epsilon_c: Annotated[float | None, typer.Option(help="ε_t = √(c/t); the paper's c = 2.")] = None,
     max_steps: Annotated[int | None, typer.Option(help="Step limit of an episode (default 30).")] = None,
     out: Annotated[Path | None, typer.Option(help="Where to save the Q table (default: the cache).")] = None,
+    joint: Annotated[
+        bool, typer.Option("--joint", help="One table over the joint state, as the paper (small homes only).")
+    ] = False,
     json: JsonOption = False,
 ) -> None:
-    """Learn the home's services by Sarsa and save the Q table."""
+    """Learn the home's services by Sarsa, group by group, and save the Q tables."""
     from dataclasses import replace
 
-    from homecog.environment.core import Core
+    from homecog.learning.grouped import train_policy
     from homecog.learning.sarsa import SarsaConfig
-    from homecog.learning.sarsa import train as run_sarsa
+    from homecog.learning.size import check_size
     from homecog.paths import q_table_path
 
     h = load_home(home)
     given = {
-        "episodes": episodes,
+        "episodes": episodes if joint else None,
         "seed": seed,
         "alpha": alpha,
         "gamma": gamma,
@@ -221,12 +248,15 @@ def train(
         config.validate()
     except ValueError as e:
         raise UsageProblemError(str(e)) from None
-    path = out if out is not None else q_table_path(h)
+    if episodes is not None and episodes < 0:
+        raise UsageProblemError(f"episodes must be 0 or more, got {episodes}")
+    size = check_size(h, joint=joint)
+    path = out if out is not None else q_table_path(h, joint=joint)
     _check_writable(path)
-    core = Core(h)
-    with progress_bar(f"Sarsa on {h.name}", config.episodes) as update:
-        result = run_sarsa(h, config, core=core, progress=update)
-    result.q_table.save(path)
+    starts = h.context_count << len(h.devices)
+    with progress_bar(f"Sarsa on {h.name}", config.episodes if joint else 1) as update:
+        result = train_policy(h, config, joint=joint, episodes=None if joint else episodes, progress=update)
+    result.policy.save(path)
     data = {
         "episodes": result.episodes,
         "steps": result.steps,
@@ -236,16 +266,19 @@ def train(
         "q_path": str(path),
         "home": h.name,
         "home_hash": h.content_hash,
+        "joint": joint,
+        "groups": size.groups,
     }
     if json:
         emit_json(data)
         return
+    how = "one joint table" if joint else f"{size.groups} groups"
     stdout.print(
-        f"trained {h.name}: {result.episodes:,} episodes, {result.steps:,} steps in "
+        f"trained {h.name} ({how}): {result.episodes:,} episodes, {result.steps:,} steps in "
         f"{result.seconds:.1f} s ({result.steps_per_second / 1e6:.2f} M steps/s)"
     )
     stdout.print(
-        f"greedy-optimal rate {result.greedy_optimal_rate:.6f} over {core.n_start_states():,} start states"
+        f"greedy-optimal rate {result.greedy_optimal_rate:.6f} over {_big(starts)} start states (exact)"
     )
     stdout.print(f"Q table: {path}")
 
@@ -282,6 +315,9 @@ def build(
         typer.Option(help="multi (several clusters per service) or paper (Algorithms 2 and 3 as published)."),
     ] = "multi",
     seed: Annotated[int, typer.Option(help="Seed of the random readings inside bins.")] = 0,
+    joint: Annotated[
+        bool, typer.Option("--joint", help="Use the joint Q table (train --joint) instead of the groups'.")
+    ] = False,
     json: JsonOption = False,
 ) -> None:
     """Build the knowledge tree from the Q table's samples and store it."""
@@ -298,7 +334,7 @@ def build(
         raise UsageProblemError(f"--q {q}: no such file")
     store = Store(db, h)
     try:
-        result = run_build(h, store, q_path=q, mode=mode, seed=seed, progress=_status)
+        result = run_build(h, store, q_path=q, mode=mode, seed=seed, joint=joint, progress=_status)
         counts = store.counts()
     finally:
         store.close()
@@ -425,6 +461,9 @@ def eval_command(
         Path | None, typer.Option(help="Write a Markdown report with charts into this folder.")
     ] = None,
     db: DbOption = None,
+    joint: Annotated[
+        bool, typer.Option("--joint", help="Learn from the paper's joint Q table (small homes only).")
+    ] = False,
     json: JsonOption = False,
 ) -> None:
     """Precision, recall and F1 of every method on scenarios; with --corrections, how the robot develops."""
@@ -448,7 +487,15 @@ def eval_command(
     if report is not None:
         _check_writable(report / "report.md")
     result = run_eval(
-        h, t, scenarios=cases, seed=seed, methods=names, corrections=corrections, db=db, progress=_status
+        h,
+        t,
+        scenarios=cases,
+        seed=seed,
+        methods=names,
+        corrections=corrections,
+        db=db,
+        joint=joint,
+        progress=_status,
     )
     data = result.as_dict()
     if report is not None:
@@ -468,6 +515,8 @@ def eval_command(
     table.add_row("paper's Sarsa+IHDR", "0.9821", "0.9026", "0.9407", "", "")
     table.add_row("paper's K-means", "0.8866", "0.8457", "0.8657", "", "")
     stdout.print(table)
+    for name, why in result.skipped.items():
+        stdout.print(f"{name}: {why}")
     if result.curve:
         stdout.print(
             "corrections → F1: " + ", ".join(f"{c['corrections']}: {c['f1']:.3f}" for c in result.curve)
@@ -491,6 +540,9 @@ def replay(
     report: Annotated[
         Path | None, typer.Option(help="Write a Markdown report with the running figures into this folder.")
     ] = None,
+    joint: Annotated[
+        bool, typer.Option("--joint", help="Start from the paper's joint Q table (small homes only).")
+    ] = False,
     json: JsonOption = False,
 ) -> None:
     """Prequential evaluation: every method predicts each event, then learns it."""
@@ -503,7 +555,7 @@ def replay(
         raise UsageProblemError(f"--events {events}: no such file")
     if report is not None:
         _check_writable(report / "replay.md")
-    result = run_replay(h, events, methods=names, seed=seed, progress=_status)
+    result = run_replay(h, events, methods=names, seed=seed, joint=joint, progress=_status)
     data = result.as_dict()
     if report is not None:
         data["report"] = str(write_replay_report(data, report, f"{events.name} on {h.name}"))
@@ -519,6 +571,8 @@ def replay(
     for name, m in result.methods.items():
         table.add_row(name, *(f"{m[k]:.4f}" for k in ("precision", "recall", "f1")))
     stdout.print(table)
+    for name, why in result.skipped.items():
+        stdout.print(f"{name}: {why}")
     if report is not None:
         stdout.print(f"report: {data['report']}")
 
@@ -605,15 +659,22 @@ def simulate(
     home: HomeOption = "paper",
     context: PlanContextOption = None,
     png: Annotated[Path | None, typer.Option("--png", help="Draw the trajectory into this PNG file.")] = None,
+    bag: Annotated[
+        Path | None,
+        typer.Option("--bag", help="Also write the run as a ROS 2 bag (MCAP) into this new folder."),
+    ] = None,
     json: JsonOption = False,
 ) -> None:
     """Plan the services and carry the plan out with a simulated robot on the floor plan."""
     from homecog.simulation import draw_trajectory
     from homecog.simulation import simulate as run_simulation
+    from homecog.simulation.bag import check_bag_folder, write_bag
 
     h = load_home(home)
     if png is not None:
         _check_writable(png)
+    if bag is not None:
+        check_bag_folder(bag)
     result = _plan(h, services, context)
     sim = run_simulation(h, result.actions, devices=_initial_devices(h, context))
     data = sim.as_dict()
@@ -621,6 +682,7 @@ def simulate(
     if png is not None:
         draw_trajectory(h.layout, sim, png)
         data["png"] = str(png)
+    data["bag"] = str(write_bag(h, sim, bag)) if bag is not None else None
     if json:
         emit_json(data)
         return
@@ -634,6 +696,8 @@ def simulate(
     stdout.print(f"{len(sim.timeline)} actions in {sim.seconds:.1f} s, {sim.distance_m:.2f} m driven")
     if png is not None:
         stdout.print(f"trajectory: {png}")
+    if bag is not None:
+        stdout.print(f"ROS 2 bag: {bag}")
 
 
 def _initial_devices(h: Home, context: str | None) -> dict[str, bool]:
@@ -681,6 +745,15 @@ def up(
             help="Mirror the simulated home on this MQTT broker: its states go out, commands come in."
         ),
     ] = None,
+    home_assistant: Annotated[
+        str | None,
+        typer.Option(
+            "--home-assistant", help="Take the context from this Home Assistant (http://host:8123) instead."
+        ),
+    ] = None,
+    ha_token: Annotated[
+        str | None, typer.Option("--ha-token", help="Its access token (default: $HOMECOG_HA_TOKEN).")
+    ] = None,
 ) -> None:
     """Start the robot: train or reuse the Q table, build or reuse the tree, serve the HMI."""
     import functools
@@ -704,6 +777,10 @@ def up(
         raise UsageProblemError("--token must be at least 8 characters")
     if publish is not None and (mqtt is not None or speed == 0):
         raise UsageProblemError("--publish mirrors the simulated home; it needs --speed > 0 and no --mqtt")
+    if home_assistant is not None and (mqtt is not None or publish is not None):
+        raise UsageProblemError(
+            "--home-assistant is the home's context; it goes with neither --mqtt nor --publish"
+        )
     h = load_home(home)
     settings = Settings.of(token=token)  # or $HOMECOG_TOKEN
     if host not in LOCAL_HOSTS and settings.token is None:
@@ -711,6 +788,13 @@ def up(
         stdout.print(f"token for every /api request (shown once): {settings.token}")
     say = stdout.print
     with contextlib.ExitStack() as stack:
+        if home_assistant is not None:  # first: a wrong URL, token or entity fails before any training
+            from homecog.context.home_assistant import HomeAssistantSource
+
+            token_ha = ha_token or os.environ.get("HOMECOG_HA_TOKEN")
+            ha_source = HomeAssistantSource(h, home_assistant, token=token_ha).start()
+            stack.callback(ha_source.stop)
+            say(f"context from Home Assistant {ha_source.version} at {home_assistant}")
         store = Store(db, h)
         stack.callback(store.close)
         tree = open_tree(h, store, progress=lambda m: say(m, style="dim"))
@@ -719,6 +803,8 @@ def up(
             from homecog.context.mqtt import MqttSource
 
             source = MqttSource(h, mqtt)
+        if home_assistant is not None:
+            source = ha_source
         runtime = Runtime(home=h, store=store, tree=tree, source=source)
         if mqtt is not None:  # started once the runtime exists: a retained state comes at once
             source.on_change = functools.partial(runtime.publish, "context")
@@ -728,6 +814,8 @@ def up(
                 f"context from {mqtt}: topics homecog/{h.name}/state/<name>, "
                 f"commands to homecog/{h.name}/command/<device>"
             )
+        if home_assistant is not None:  # running since before the training: its changes go on from here
+            ha_source.on_change = functools.partial(runtime.publish, "context")
         if publish is not None:
             from homecog.context.mqtt import MqttPublisher
 
@@ -741,7 +829,7 @@ def up(
             )
         say(f"knowledge: {redact(store.url)} ({store.experience_count():,} experiences)", style="dim")
         say(f"homecog is up: http://{host if ':' not in host else f'[{host}]'}:{port}")
-        live = speed if mqtt is None else 1.0  # with a broker the clock is the home's own
+        live = speed if mqtt is None and home_assistant is None else 1.0  # a real home's own clock
         gc.freeze()  # the tree lives as long as the server: keep the collector from walking it
         uvicorn.run(
             create_app(runtime, settings.model_copy(update={"live": live})),

@@ -391,6 +391,12 @@ def solvable_states(t: Tables) -> np.ndarray:
     return ok
 
 
+def optimal_start_states(t: Tables) -> np.ndarray:
+    """Per start state ``[c, h]`` (every need pending), whether it is already the optimum."""
+    h = np.arange(1 << t.n_devices, dtype=np.int64)[None, :]
+    return (((h ^ t.want[:, None]) & t.care[:, None]) == 0) & (t.need_count[:, None] == 0)
+
+
 def solvable_start_states(t: Tables) -> np.ndarray:
     """:func:`solvable_states` of the start states, indexed ``[c, h]``."""
     ok = solvable_states(t)

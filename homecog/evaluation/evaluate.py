@@ -19,22 +19,20 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from homecog.environment.core import Core
-from homecog.errors import ContextError, HomecogError
-from homecog.evaluation.methods import METHODS, HoeffdingMethod, KMeansMethod, Method, TreeMethod
-from homecog.evaluation.scenarios import Scenario, random_scenarios, ratio, scores
+from homecog.errors import ContextError
+from homecog.evaluation.learn import EvaluationError, learn_methods
+from homecog.evaluation.methods import METHODS, Method, TreeMethod
+from homecog.evaluation.scenarios import Scenario, random_scenarios, ratio, scores, truth_of
 from homecog.home.loader import is_compatible
 from homecog.home.model import Home, parse_state
 from homecog.knowledge.ihdr import IHDRTree
-from homecog.knowledge.pipeline import ensure_q_table
-from homecog.knowledge.samples import SampleSet, make_samples
+from homecog.knowledge.pipeline import ensure_policy
+from homecog.knowledge.sample_log import SampleLog
+from homecog.knowledge.samples import SampleSet
 from homecog.knowledge.space import Space, parse_services
+from homecog.learning.size import check_size
 
 Progress = Callable[[str], None]
-
-
-class EvaluationError(HomecogError):
-    """Bad evaluation input: an incompatible truth home, a broken scenario file."""
 
 
 def check_truth(home: Home, truth: Home) -> None:
@@ -89,15 +87,10 @@ def load_scenarios(path: Path, home: Home, truth: Home, *, events: bool = False)
                     wanted = parse_services(row["services"].replace(";", ","), truth)
                 except ContextError as e:
                     raise EvaluationError(f"{path}: line {line}, column services: {e}") from None
-                truth_set, alternatives = frozenset(wanted), ()
+                truth_set, ambiguous = frozenset(wanted), ()
             else:
-                n_f = space.n_features
-                sets = truth.optimal_service_sets(
-                    point.codes[:n_f], tuple(bool(c) for c in point.codes[n_f:])
-                )
-                truth_set = sets[0] if sets else frozenset()
-                alternatives = tuple(sets) if len(sets) > 1 else ()
-            out.append(Scenario(context=context, point=point, truth=truth_set, alternatives=alternatives))
+                truth_set, ambiguous = truth_of(truth, point)
+            out.append(Scenario(context=context, point=point, truth=truth_set, choices=ambiguous))
     if not out:
         raise EvaluationError(f"{path}: no rows after the header")
     return out
@@ -169,38 +162,11 @@ def evaluate(method: Method, scenarios: Sequence[Scenario], services: Sequence[s
     )
 
 
-def build_methods(
-    home: Home,
-    samples: SampleSet,
-    names: Sequence[str],
-    *,
-    seed: int = 0,
-    kmeans_k: int = 64,
-    progress: Progress | None = None,
-) -> dict[str, Method]:
-    """Learn every method named from the same samples."""
-    out: dict[str, Method] = {}
-    for name in names:
-        if progress:
-            progress(f"learning {name} ...")
-        if name in ("multi", "paper"):
-            tree = IHDRTree(home, mode=name)
-            tree.learn_many(samples)
-            out[name] = TreeMethod(tree)
-        elif name == "kmeans":
-            out[name] = KMeansMethod(samples, k=kmeans_k, seed=seed)
-        elif name == "hoeffding":
-            out[name] = HoeffdingMethod(samples, seed=seed)
-        else:
-            raise EvaluationError(f"unknown method {name!r}; expected some of {', '.join(METHODS)}")
-    return out
-
-
 def correction_curve(
     home: Home,
     truth: Home,
     tree: IHDRTree,
-    samples: SampleSet,
+    samples: SampleSet | SampleLog,
     scenarios: Sequence[Scenario],
     k: int,
     *,
@@ -255,6 +221,7 @@ class EvalReport:
     seconds: float
     home: str
     truth: str
+    skipped: dict[str, str] = field(default_factory=dict)
 
     def as_dict(self) -> dict[str, Any]:
         out: dict[str, Any] = {
@@ -264,6 +231,8 @@ class EvalReport:
             "methods": {k: v.as_dict() for k, v in self.methods.items()},
             "seconds": round(self.seconds, 3),
         }
+        if self.skipped:
+            out["skipped"] = self.skipped
         if self.curve is not None:
             out["curve"] = self.curve
         return out
@@ -279,41 +248,38 @@ def run(
     corrections: int = 0,
     kmeans_k: int = 64,
     db: str | None = None,
+    joint: bool = False,
     progress: Progress | None = None,
 ) -> EvalReport:
     """The whole evaluation (SPEC §9, §11)."""
     start = time.perf_counter()
     check_truth(home, truth)
+    check_size(home, joint=joint)  # before anything that takes time
     if isinstance(scenarios, Path):
         cases = load_scenarios(scenarios, home, truth)
     else:
         if scenarios < 1:
             raise EvaluationError(f"--scenarios must be at least 1, got {scenarios}")
         cases = random_scenarios(home, scenarios, seed=seed, truth=truth)
-    core = Core(home)
-    q = ensure_q_table(home, core=core, progress=progress)
-    if progress:
-        progress("making samples ...")
-    samples = make_samples(core, q.q, seed=seed)
-    learned = build_methods(home, samples, methods, seed=seed, kmeans_k=kmeans_k, progress=progress)
+    policy = ensure_policy(home, joint=joint, progress=progress)
+    learned = learn_methods(
+        home, policy, methods, seed=seed, kmeans_k=kmeans_k, keep_log=bool(corrections), progress=progress
+    )
     results = {}
-    for name, method in learned.items():
+    for name, method in learned.methods.items():
         if progress:
             progress(f"evaluating {name} on {len(cases):,} scenarios ...")
         results[name] = evaluate(method, cases, home.service_names)
     curve = None
     if corrections:
-        multi = learned.get("multi")
-        tree = multi.tree if isinstance(multi, TreeMethod) else None
-        if tree is None:
-            tree = IHDRTree(home)
-            tree.learn_many(samples)
+        assert learned.tree is not None and learned.log is not None
         curve = correction_curve(
-            home, truth, tree, samples, cases, corrections, seed=seed, db=db, progress=progress
+            home, truth, learned.tree, learned.log, cases, corrections, seed=seed, db=db, progress=progress
         )
     return EvalReport(
         scenarios=len(cases),
         methods=results,
+        skipped=learned.skipped,
         curve=curve,
         seconds=time.perf_counter() - start,
         home=home.name,

@@ -9,17 +9,17 @@ clusters throughout (a fixed baseline). The running micro figures are kept after
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from homecog.environment.core import Core
-from homecog.evaluation.evaluate import build_methods, load_scenarios
+from homecog.evaluation.evaluate import load_scenarios
+from homecog.evaluation.learn import learn_methods
 from homecog.evaluation.methods import METHODS, HoeffdingMethod, TreeMethod
 from homecog.evaluation.scenarios import ratio
 from homecog.home.model import Home
-from homecog.knowledge.pipeline import ensure_q_table
-from homecog.knowledge.samples import make_samples
+from homecog.knowledge.pipeline import ensure_policy
+from homecog.learning.size import check_size
 
 Progress = Callable[[str], None]
 USER = "household"
@@ -31,6 +31,7 @@ class ReplayResult:
     methods: dict[str, dict[str, float]]
     running: dict[str, list[tuple[int, float, float, float]]]  # (events, precision, recall, f1)
     seconds: float
+    skipped: dict[str, str] = field(default_factory=dict)
 
     def as_dict(self) -> dict[str, Any]:
         return {
@@ -38,6 +39,7 @@ class ReplayResult:
             "methods": self.methods,
             "seconds": round(self.seconds, 3),
             "running": {k: [list(r) for r in v] for k, v in self.running.items()},
+            **({"skipped": self.skipped} if self.skipped else {}),
         }
 
 
@@ -57,17 +59,18 @@ def replay(
     methods: Sequence[str] = METHODS,
     seed: int = 0,
     points: int = 200,
+    joint: bool = False,
     progress: Progress | None = None,
 ) -> ReplayResult:
     """Predict, then learn, every event in order; figures per method and their running course."""
     import time
 
     start = time.perf_counter()
+    check_size(home, joint=joint)  # before anything that takes time
     rows = load_scenarios(events, home, home, events=True)
-    core = Core(home)
-    q = ensure_q_table(home, core=core, progress=progress)
-    samples = make_samples(core, q.q, seed=seed)
-    learned = build_methods(home, samples, methods, seed=seed, progress=progress)
+    policy = ensure_policy(home, joint=joint, progress=progress)
+    learning = learn_methods(home, policy, methods, seed=seed, progress=progress)
+    learned = learning.methods
     for m in learned.values():
         if isinstance(m, TreeMethod):
             m.user = USER
@@ -91,7 +94,11 @@ def replay(
         p, r, f = _prf(t)
         figures[name] = {"precision": round(p, 6), "recall": round(r, 6), "f1": round(f, 6)}
     return ReplayResult(
-        events=len(rows), methods=figures, running=running, seconds=time.perf_counter() - start
+        events=len(rows),
+        methods=figures,
+        running=running,
+        seconds=time.perf_counter() - start,
+        skipped=learning.skipped,
     )
 
 

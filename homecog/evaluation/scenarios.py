@@ -26,20 +26,41 @@ from homecog.knowledge.space import Point, Space, finite_span
 
 @dataclass(frozen=True)
 class Scenario:
-    """A context as a scenario-file row, its point, and the services the truth home wants."""
+    """A context as a scenario-file row, its point, and the services the truth home wants.
+
+    ``truth`` is the canonical optimal set; ``choices`` holds, for every group of devices where
+    more than one set is optimal (services that set several devices), that group's optimal
+    sets, the canonical one first.
+    """
 
     context: dict[str, str]
     point: Point
     truth: frozenset[str]
-    alternatives: tuple[frozenset[str], ...] = ()
+    choices: tuple[tuple[frozenset[str], ...], ...] = ()
 
     def truth_for(self, predicted: Sequence[str]) -> frozenset[str]:
-        """The optimal set that agrees best with a prediction (they differ only where services
-        that set several devices make more than one set optimal)."""
-        if not self.alternatives:
+        """The optimal set that agrees best with a prediction: most services in common, then
+        fewest differences — chosen group by group, since both counts add up over groups."""
+        if not self.choices:
             return self.truth
         p = set(predicted)
-        return max(self.alternatives, key=lambda t: (len(p & t), -len(t ^ p)))
+        out = set(self.truth)
+        for options in self.choices:
+            out -= options[0]
+            out |= max(options, key=lambda t: (len(p & t), -len(t ^ p)))
+        return frozenset(out)
+
+
+def truth_of(home: Home, point: Point) -> tuple[frozenset[str], tuple[tuple[frozenset[str], ...], ...]]:
+    """The canonical optimal set of a point under ``home`` and the groups' choices."""
+    from homecog.home.truth import choices
+
+    n_f = len(home.features)
+    per_group = choices(home, point.codes[:n_f], tuple(bool(c) for c in point.codes[n_f:]))
+    names = home.service_names
+    truth = frozenset(names[a] for c in per_group for a in c[0])
+    ambiguous = tuple(tuple(frozenset(names[a] for a in s) for s in c) for c in per_group if len(c) > 1)
+    return truth, ambiguous
 
 
 def random_scenarios(home: Home, n: int, *, seed: int = 0, truth: Home | None = None) -> list[Scenario]:
@@ -68,18 +89,8 @@ def random_scenarios(home: Home, n: int, *, seed: int = 0, truth: Home | None = 
         )
         context = space.context(point)
         point = space.point(context)  # what a reader of the scenario file would get
-        sets = judge.optimal_service_sets(
-            point.codes[: len(codes)], tuple(bool(s) for s in point.codes[len(codes) :])
-        )
-        truth_set = sets[0] if sets else frozenset()
-        out.append(
-            Scenario(
-                context=context,
-                point=point,
-                truth=truth_set,
-                alternatives=tuple(sets) if len(sets) > 1 else (),
-            )
-        )
+        truth_set, ambiguous = truth_of(judge, point)
+        out.append(Scenario(context=context, point=point, truth=truth_set, choices=ambiguous))
     return out
 
 

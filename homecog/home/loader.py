@@ -29,6 +29,7 @@ import yaml
 
 from homecog.context.routine import parse_routine
 from homecog.errors import HomeFileError
+from homecog.home.home_assistant import parse_home_assistant
 from homecog.home.layout import parse_layout
 from homecog.home.model import (
     ComfortRule,
@@ -55,6 +56,7 @@ _SECTIONS = (
     "rewards",
     "layout",
     "routine",
+    "home_assistant",
 )
 _REQUIRED = ("name", "context", "devices", "services", "comfort")
 _KINDS = ("clock", "numeric", "categorical")
@@ -273,6 +275,7 @@ class _Validator:
             rewards=rewards,
             layout=layout,
             routine=parse_routine(data.get("routine"), features, devices, self.fail),
+            home_assistant=parse_home_assistant(data.get("home_assistant"), features, devices, self.fail),
             description=description,
             source=self.source,
         )

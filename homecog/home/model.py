@@ -19,10 +19,13 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Literal
+from typing import TYPE_CHECKING, Literal
 
 from homecog.errors import ContextError
 from homecog.home.layout import Layout
+
+if TYPE_CHECKING:  # it imports this module
+    from homecog.home.home_assistant import HomeAssistantMap
 
 FeatureKind = Literal["clock", "numeric", "categorical"]
 ON, OFF = True, False
@@ -257,6 +260,7 @@ class Home:
     rewards: Rewards = field(default_factory=Rewards)
     layout: Layout | None = None
     routine: object | None = None
+    home_assistant: HomeAssistantMap | None = None  # where it lives in Home Assistant (SPEC §12)
     description: str | None = None
     source: str = "<memory>"
     content_hash: str = ""
@@ -333,7 +337,8 @@ class Home:
     ) -> list[frozenset[str]]:
         """Every set of services that takes a context to its optimum: the services of a sequence
         in which each service lowers the distance and none is prohibited (SPEC §3, §9). Smallest
-        sets first (then fewest devices set, then service order).
+        sets first (then fewest devices set, then service order); found group by group
+        (:mod:`homecog.home.truth`).
 
         With services that each set one device there is exactly one such set. A service that
         sets several (``AllQuiet: {speaker: off, hood: off}``) can make several sets optimal.
@@ -347,50 +352,9 @@ class Home:
         >>> sorted(home.optimal_service_sets(codes, states)[0])
         ['CloseWindow', 'SendDrinks', 'TurnOnACL', 'TurnOnLight', 'TurnOnTVL']
         """
-        wanted = self.wanted(codes)
-        needs = frozenset(self.needs_of(codes))
-        effects = [tuple((self.device_index(d), v) for d, v in s.sets) for s in self.services]
+        from homecog.home.truth import optimal_service_sets
 
-        def distance(st: tuple[bool, ...], pending: frozenset[int]) -> int:
-            return sum(1 for x, w in zip(st, wanted, strict=True) if w is not None and x != w) + len(pending)
-
-        memo: dict[tuple[tuple[bool, ...], frozenset[int]], set[frozenset[int]]] = {}
-
-        def paths(st: tuple[bool, ...], pending: frozenset[int]) -> set[frozenset[int]]:
-            key = (st, pending)
-            if key in memo:
-                return memo[key]
-            d = distance(st, pending)
-            out: set[frozenset[int]] = {frozenset()} if d == 0 else set()
-            for a, effect in enumerate(effects):
-                if d == 0 or len(out) >= limit or self.is_prohibited(a, codes, st):
-                    continue
-                if effect:
-                    nxt = list(st)
-                    for dev, value in effect:
-                        nxt[dev] = value
-                    st2, pend2 = tuple(nxt), pending
-                else:
-                    st2, pend2 = st, pending - {a}
-                if distance(st2, pend2) < d:
-                    out |= {rest | {a} for rest in paths(st2, pend2)}
-            memo[key] = out
-            return out
-
-        found = paths(tuple(bool(x) for x in states), needs)
-        if not found:  # conflicting rules: fall back to one setter per wrong device, no order
-            chosen = set(needs)
-            for d, (x, w) in enumerate(zip(states, wanted, strict=True)):
-                if w is not None and x != w:
-                    setter = next((a for a, e in enumerate(effects) if (d, w) in e), None)
-                    if setter is not None:
-                        chosen.add(setter)
-            found = {frozenset(chosen)}
-
-        def key(chosen: frozenset[int]) -> tuple[int, int, tuple[int, ...]]:
-            return (len(chosen), sum(len(effects[a]) for a in chosen), tuple(sorted(chosen)))
-
-        return [frozenset(self.services[a].name for a in c) for c in sorted(found, key=key)]
+        return optimal_service_sets(self, codes, states, limit)
 
     def services_to_optimum(self, codes: Sequence[int], states: Sequence[bool]) -> list[str]:
         """The set of services that takes a context to its optimum (the ground truth).

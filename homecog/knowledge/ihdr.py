@@ -45,6 +45,7 @@ from __future__ import annotations
 
 import copy
 import itertools
+import math
 import operator
 from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -231,28 +232,38 @@ class _BoxIndex:
         self._keys: dict[int, list[tuple[Any, ...]]] = {}  # cluster id (unique in a node) -> partner keys
 
     @staticmethod
-    def partner_keys(cluster: Cluster) -> list[tuple[Any, ...]]:
-        dims = sorted(cluster.conditions)
+    def partner_keys(cluster: Cluster, mask: int | None = None) -> list[tuple[Any, ...]]:
+        dims = _bits(cluster.mask if mask is None else mask)
         values = [cluster.conditions[d] for d in dims]
         mask = sum(1 << j for j in dims)
         return [(mask, j, (*values[:i], *values[i + 1 :])) for i, j in enumerate(dims)]
 
     def add(self, cluster: Cluster, keys: list[tuple[Any, ...]] | None = None) -> None:
-        dims = tuple(sorted(cluster.conditions))
-        _, table = self.by_mask.setdefault(cluster.mask, (_getter(dims), {}))
-        for key in itertools.product(*(sorted(cluster.conditions[j]) for j in dims)):  # type: ignore[arg-type]
+        self.point_to(cluster, cluster.conditions)
+        self.link(cluster, keys if keys is not None else self.partner_keys(cluster))
+
+    def point_to(self, cluster: Cluster, conditions: dict[int, Condition], mask: int | None = None) -> None:
+        """Make every point of the box ``conditions`` answer ``cluster``."""
+        mask = cluster.mask if mask is None else mask
+        entry = self.by_mask.get(mask)
+        if entry is None:
+            entry = self.by_mask[mask] = (_getter(_bits(mask)), {})
+        table = entry[1]
+        values = [conditions[j] for j in _bits(mask)]
+        if all(len(v) == 1 for v in values):  # type: ignore[arg-type]
+            table[tuple(next(iter(v)) for v in values)] = cluster  # type: ignore[call-overload]
+            return
+        for key in itertools.product(*values):  # type: ignore[arg-type]
             table[key] = cluster
-        keys = keys if keys is not None else self.partner_keys(cluster)
+
+    def link(self, cluster: Cluster, keys: list[tuple[Any, ...]]) -> None:
+        """Register a box as a merge partner under its keys."""
         self._keys[cluster.id] = keys
         for key in keys:
             self.partners.setdefault(key, {})[cluster.id] = cluster
 
-    def remove(self, cluster: Cluster) -> None:
-        dims = tuple(sorted(cluster.conditions))
-        _, table = self.by_mask[cluster.mask]
-        for key in itertools.product(*(sorted(cluster.conditions[j]) for j in dims)):  # type: ignore[arg-type]
-            if table.get(key) is cluster:
-                del table[key]
+    def unlink(self, cluster: Cluster) -> None:
+        """Withdraw a box from the merge partners (its points still answer it)."""
         for key in self._keys.pop(cluster.id):
             del self.partners[key][cluster.id]
 
@@ -322,8 +333,8 @@ class IHDRTree:
         self._described: dict[tuple[Any, ...], dict[str, str]] = {}  # see describe
         sizes = [len(d.values) for d in self._space.dims]
         self._radices = tuple(sizes)
-        self._strides = tuple(int(np.prod(sizes[j + 1 :], dtype=np.int64)) for j in range(len(sizes)))
-        points = int(np.prod(sizes, dtype=np.int64))
+        self._strides = tuple(math.prod(sizes[j + 1 :]) for j in range(len(sizes)))
+        points = math.prod(sizes)
         self._dense_ok = mode == "multi" and points * (len(home.services) + 1) <= DENSE_LIMIT
         self.n_experiences = 0
 
@@ -428,15 +439,21 @@ class IHDRTree:
         learned once with its count, which is what makes building from 663,552 samples quick.
         """
         codes, readings, positions, masks = samples.codes, samples.readings, samples.positions, samples.masks
-        n_dims = len(self._space)
-        numeric = [j for j, d in enumerate(self._space.dims) if d.numeric]
+        local_dims = samples.space.dims
+        n_dims = len(local_dims)
+        # a group's samples: their dimensions and services at their places in the whole home
+        dims = samples.dims if samples.dims is not None else tuple(range(n_dims))
         n_services = positions.shape[1]
+        where = samples.services if samples.services is not None else tuple(range(n_services))
+        numeric = [j for j, d in enumerate(local_dims) if d.numeric]
+        radices = tuple(len(d.values) for d in local_dims)
         idle = (positions < 0).all(axis=1)
         done = positions >= 0
         for a in range(n_services):
             both = done & done[:, [a]]
-            self._precedence[a] += (both & (positions > positions[:, [a]])).sum(axis=0)
+            self._precedence[where[a], list(where)] += (both & (positions > positions[:, [a]])).sum(axis=0)
         self._before = None
+        width = len(self._space)
         for a in range(n_services + 1):
             if a < n_services:
                 rows = np.flatnonzero(positions[:, a] >= 0)
@@ -451,24 +468,38 @@ class IHDRTree:
                 row_pos = np.zeros(len(rows))
             if rows.size == 0:
                 continue
-            first, inverse, counts = _distinct_rows(row_masks, codes[rows], self._radices)
+            first, inverse, counts = _distinct_rows(row_masks, codes[rows], radices)
             pos_sums = np.bincount(inverse, weights=row_pos, minlength=len(first))
             stats = {}
-            for j in numeric:
-                vals = readings[rows, j]
-                low, high = _group_min_max(inverse, vals, len(first))
-                stats[j] = (np.bincount(inverse, weights=vals, minlength=len(first)), low, high)
-            for order in np.argsort(first, kind="stable"):  # in the order the samples came
-                row = rows[first[order]]
-                extra = {j: (stats[j][0][order], stats[j][1][order], stats[j][2][order]) for j in numeric}
+            # readings matter to the paper's clusters (mean ± range); multi keeps bins only
+            if self.mode == "paper" and numeric:
+                grouped = np.argsort(inverse, kind="stable")
+                for j in numeric:
+                    vals = readings[rows, j]
+                    low, high = _group_min_max(grouped, inverse, vals, len(first))
+                    stats[j] = (np.bincount(inverse, weights=vals, minlength=len(first)), low, high)
+            target = where[a] if a < n_services else len(self.home.services)
+            order = np.argsort(first, kind="stable")  # in the order the samples came
+            picked = rows[first[order]]
+            row_codes = codes[picked].tolist()
+            row_readings = readings[picked].tolist()
+            local_masks = row_masks[first[order]].tolist()
+            row_counts, row_sums = counts[order].tolist(), pos_sums[order].tolist()
+            row_stats = {j: [stats[j][k][order].tolist() for k in range(3)] for j in stats}
+            for i in range(len(order)):
+                local_mask = local_masks[i]
+                full_codes = [0] * width
+                full_readings: list[float | None] = [None] * width
+                mask = 0
+                for j in _bits(local_mask):
+                    g = dims[j]
+                    mask |= 1 << g
+                    full_codes[g] = row_codes[i][j]
+                    r = row_readings[i][j]
+                    full_readings[g] = None if r != r else r  # NaN: not a reading
+                extra = {dims[j]: (st[0][i], st[1][i], st[2][i]) for j, st in row_stats.items()}
                 self._learn_row(
-                    a,
-                    int(row_masks[first[order]]),
-                    tuple(int(c) for c in codes[row]),
-                    tuple(None if np.isnan(r) else float(r) for r in readings[row]),
-                    int(counts[order]),
-                    float(pos_sums[order]),
-                    extra,
+                    target, mask, tuple(full_codes), tuple(full_readings), row_counts[i], row_sums[i], extra
                 )
         self.n_experiences += len(codes)
 
@@ -555,7 +586,7 @@ class IHDRTree:
     ) -> None:
         """Multi mode: join a covering box, merge with a box one dimension away, or start one."""
         index = self._index[node.id]
-        dims = tuple(j for j in range(len(self._space)) if mask >> j & 1)
+        dims = _bits(mask)
         key = tuple(codes[j] for j in dims)
         hit = index.covering(mask, key)
         if hit is not None:
@@ -563,23 +594,26 @@ class IHDRTree:
             hit.position_sum += pos_sum
             return
         box = self._new_cluster({j: frozenset([codes[j]]) for j in dims}, count=n, position_sum=pos_sum)
+        index.point_to(box, box.conditions, mask)
         while True:
-            keys = index.partner_keys(box)
+            keys = index.partner_keys(box, mask)
             partner = index.partner(box, keys)
             if partner is None:
                 break
-            index.remove(partner)
+            index.unlink(partner)
             node.clusters.remove(partner)
             merged = {j: box.conditions[j] | partner.conditions[j] for j in box.conditions}  # type: ignore[operator]
-            box = Cluster(
-                id=partner.id,
-                conditions=merged,
-                count=box.count + partner.count,
-                position_sum=box.position_sum + partner.position_sum,
-                seq=partner.seq,
-            )
+            # the union takes the partner's identity; of the two objects, the one with more
+            # points keeps them, and only the other's points are pointed at it
+            keep, other = (partner, box) if _size(partner) >= _size(box) else (box, partner)
+            index.point_to(keep, other.conditions, mask)
+            keep.id, keep.seq = partner.id, partner.seq
+            keep.conditions = merged
+            keep.count = box.count + partner.count
+            keep.position_sum = box.position_sum + partner.position_sum
+            box = keep
         node.clusters.append(box)
-        index.add(box, keys)
+        index.link(box, keys)
         self._dense = None
 
     # -- cognition ---------------------------------------------------------------------------
@@ -962,6 +996,25 @@ class IHDRTree:
         return state
 
 
+def _size(cluster: Cluster) -> int:
+    """Points of a box: the product of its value sets."""
+    return math.prod(len(c) for c in cluster.conditions.values())  # type: ignore[arg-type]
+
+
+def _bits(mask: int) -> tuple[int, ...]:
+    """The positions of the set bits of a mask, lowest first.
+
+    >>> _bits(0b10110)
+    (1, 2, 4)
+    """
+    out = []
+    while mask:
+        low = mask & -mask
+        out.append(low.bit_length() - 1)
+        mask ^= low
+    return tuple(out)
+
+
 def _covers(box: Mapping[int, Condition], codes: Sequence[int]) -> bool:
     return all(codes[j] in c for j, c in box.items())  # type: ignore[operator]
 
@@ -989,8 +1042,10 @@ def _distinct_rows(
     return first, inverse.reshape(-1), counts
 
 
-def _group_min_max(inverse: np.ndarray, values: np.ndarray, size: int) -> tuple[np.ndarray, np.ndarray]:
-    order = np.argsort(inverse, kind="stable")
+def _group_min_max(
+    order: np.ndarray, inverse: np.ndarray, values: np.ndarray, size: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """Per group of ``inverse``, the least and greatest value (``order`` sorts ``inverse``)."""
     starts = np.searchsorted(inverse[order], np.arange(size))
     ordered = values[order]
     return np.minimum.reduceat(ordered, starts), np.maximum.reduceat(ordered, starts)

@@ -2,6 +2,7 @@
 
 Commands that need a Q table or a tree find the ones earlier commands made for the same
 home (cached under the data directory by the home's content hash) or make them (SPEC §11).
+A home is learned group by group by default; ``joint`` asks for the paper's one table.
 """
 
 from __future__ import annotations
@@ -11,14 +12,16 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
-from homecog.environment.core import Core
 from homecog.errors import QTableError
 from homecog.home.model import Home
 from homecog.knowledge.ihdr import IHDRTree
-from homecog.knowledge.samples import make_samples
+from homecog.knowledge.sample_log import SampleLog
+from homecog.knowledge.samples import policy_samples
 from homecog.knowledge.store import Store
-from homecog.learning.qtable import QTable
-from homecog.learning.sarsa import SarsaConfig, train
+from homecog.learning.grouped import train_policy
+from homecog.learning.policy import Policy
+from homecog.learning.sarsa import SarsaConfig
+from homecog.learning.size import check_size
 from homecog.paths import q_table_path
 
 Progress = Callable[[str], None]
@@ -29,23 +32,27 @@ def _say(progress: Progress | None, message: str) -> None:
         progress(message)
 
 
-def ensure_q_table(
-    home: Home, path: Path | None = None, *, core: Core | None = None, progress: Progress | None = None
-) -> QTable:
-    """The Q table at ``path`` (refused if made for another home), or the cached one, trained
-    with default settings if there is none yet."""
+def ensure_policy(
+    home: Home, path: Path | None = None, *, joint: bool = False, progress: Progress | None = None
+) -> Policy:
+    """The policy at ``path`` (refused if made for another home), or the cached one, learned
+    with default settings if there is none yet (grouped, or ``joint``)."""
     if path is not None:
-        return QTable.load(path, home)
-    cached = q_table_path(home)
+        return Policy.load(path, home)
+    check_size(home, joint=joint)
+    cached = q_table_path(home, joint=joint)
     if cached.exists():
         try:
-            return QTable.load(cached, home)
+            policy = Policy.load(cached, home)
+            if policy.joint == joint:
+                return policy
         except QTableError:
-            pass  # a damaged cache is made again
-    _say(progress, f"training Sarsa on {home.name} (no Q table cached yet) ...")
-    result = train(home, SarsaConfig(), core=core)
-    result.q_table.save(cached)
-    return result.q_table
+            pass  # a damaged or outdated cache is made again
+    how = "as one joint table" if joint else "group by group"
+    _say(progress, f"training Sarsa on {home.name} {how} (no Q table cached yet) ...")
+    policy = train_policy(home, SarsaConfig(), joint=joint).policy
+    policy.save(cached)
+    return policy
 
 
 @dataclass
@@ -55,6 +62,21 @@ class BuildResult:
     seconds: float
 
 
+def learn_policy(
+    home: Home, policy: Policy, tree: IHDRTree, *, seed: int = 0, log: SampleLog | None = None
+) -> int:
+    """Learn the samples of every group of a policy into ``tree`` (one group's samples in memory
+    at a time), logging them compactly into ``log``; returns how many there were."""
+    count = 0
+    groups = [i for i, g in enumerate(policy.groups) if g.services]
+    for i, samples in zip(groups, policy_samples(home, policy, seed=seed), strict=True):
+        tree.learn_many(samples)
+        count += len(samples)
+        if log is not None:
+            log.add(samples, i)
+    return count
+
+
 def build(
     home: Home,
     store: Store,
@@ -62,21 +84,20 @@ def build(
     q_path: Path | None = None,
     mode: str = "multi",
     seed: int = 0,
+    joint: bool = False,
     progress: Progress | None = None,
 ) -> BuildResult:
-    """Samples from the Q table, the tree from the samples, both into the store."""
+    """Samples from the policy, the tree from the samples, both into the store."""
     start = time.perf_counter()
-    core = Core(home)
-    q = ensure_q_table(home, q_path, core=core, progress=progress)
-    _say(progress, f"making samples from every start state ({core.n_start_states():,}) ...")
-    samples = make_samples(core, q.q, seed=seed)
-    _say(progress, f"building the {mode} tree ...")
+    policy = ensure_policy(home, q_path, joint=joint, progress=progress)
+    _say(progress, f"making samples and the {mode} tree, {len(policy.groups)} group(s) ...")
     tree = IHDRTree(home, mode=mode)
-    tree.learn_many(samples)
+    log = SampleLog(seed=seed, joint=policy.joint)
+    count = learn_policy(home, policy, tree, seed=seed, log=log)
     _say(progress, "storing the tree and the samples ...")
     seconds = time.perf_counter() - start
-    store.save_build(tree, samples, seconds=seconds)
-    return BuildResult(tree=tree, samples=len(samples), seconds=time.perf_counter() - start)
+    store.save_build(tree, log, seconds=seconds)
+    return BuildResult(tree=tree, samples=count, seconds=time.perf_counter() - start)
 
 
 def open_tree(home: Home, store: Store, *, progress: Progress | None = None) -> IHDRTree:

@@ -44,13 +44,17 @@ wrong on the training space, which is what lets the ``multi`` tree reach its pre
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from dataclasses import dataclass
 
 import numba
 import numpy as np
 
 from homecog.environment.core import Core, Tables, apply, argmax_row, distance
+from homecog.home.groups import project
+from homecog.home.model import Home
 from homecog.knowledge.space import Point, Space, finite_span
+from homecog.learning.policy import Policy
 
 _jit = numba.njit(cache=True, nogil=True)
 
@@ -76,6 +80,10 @@ class SampleSet:
     performs service ``a`` (−1: not performed) and ``masks[i, a]`` what matters to it; the
     last column of ``masks`` is what matters to "nothing to do" where no service is performed
     (sample sets stored before that column existed have none: every dimension matters).
+
+    The samples of one group of a home (SPEC §4.1) are those of the group's projection: its
+    space is the context features and the group's devices, and ``dims`` and ``services`` give
+    the position of each of its dimensions and services in the whole home (None: the same).
     """
 
     space: Space
@@ -83,6 +91,8 @@ class SampleSet:
     readings: np.ndarray
     positions: np.ndarray
     masks: np.ndarray
+    dims: tuple[int, ...] | None = None
+    services: tuple[int, ...] | None = None
 
     def __len__(self) -> int:
         return len(self.codes)
@@ -163,14 +173,14 @@ def dim_size(dim: object) -> int:
     return len(dim.values)  # type: ignore[attr-defined]
 
 
-def point_codes(core: Core) -> np.ndarray:
+def start_codes(home: Home) -> np.ndarray:
     """Codes of every start state's point, shape (C·H, dims), in (c, h) order."""
-    home = core.home
     radix = [f.radix for f in home.features]
-    ctx = np.stack(np.unravel_index(np.arange(core.n_contexts), radix), axis=1)
-    n_h = 1 << core.n_devices
-    dev = (np.arange(n_h)[:, None] >> np.arange(core.n_devices)[None, :]) & 1
-    return np.concatenate([np.repeat(ctx, n_h, axis=0), np.tile(dev, (core.n_contexts, 1))], axis=1)
+    n_contexts, n_devices = home.context_count, len(home.devices)
+    ctx = np.stack(np.unravel_index(np.arange(n_contexts), radix), axis=1)
+    n_h = 1 << n_devices
+    dev = (np.arange(n_h)[:, None] >> np.arange(n_devices)[None, :]) & 1
+    return np.concatenate([np.repeat(ctx, n_h, axis=0), np.tile(dev, (n_contexts, 1))], axis=1)
 
 
 def sufficient_masks(
@@ -236,8 +246,34 @@ def _box_all(
     return holds[tuple(codes[members, j] for j in kept)]
 
 
-def make_samples(core: Core, q: np.ndarray, *, seed: int = 0, limit: int | None = None) -> SampleSet:
-    """Samples of every start state of a home from a Q table (deterministic given ``seed``)."""
+def draw_readings(space: Space, codes: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    """A random reading inside its bin for every numeric dimension of every point (NaN for the
+    others): two decimals, rounded down so that a reading never leaves its half-open bin."""
+    n_points = codes.shape[0]
+    numeric = np.full((n_points, len(space.dims)), np.nan)
+    for j, dim in enumerate(space.dims):
+        if not dim.numeric:
+            continue
+        feature = space.home.features[j]
+        bounds = np.array(finite_span(feature.bins)).reshape(-1, 2)  # type: ignore[arg-type]
+        low, high = bounds[codes[:, j], 0], bounds[codes[:, j], 1]
+        if dim.kind == "clock":  # a bin wrapping midnight: draw on the unwrapped span
+            high = np.where(high <= low, high + 24, high)
+        values = np.maximum(np.floor((low + (high - low) * rng.random(n_points)) * 100) / 100, low)
+        numeric[:, j] = values % 24 if dim.kind == "clock" else values
+    return numeric
+
+
+def make_samples(
+    core: Core,
+    q: np.ndarray,
+    *,
+    seed: int = 0,
+    limit: int | None = None,
+    rng: np.random.Generator | None = None,
+) -> SampleSet:
+    """Samples of every start state of a home from a Q table (deterministic given ``seed``, or
+    the generator ``rng`` of the readings)."""
     space = Space(core.home)
     limit = limit or 2 * (core.n_devices + int(core.tables.need_count.max())) + 2
     positions = greedy_positions(core.tables, q, limit)
@@ -245,34 +281,52 @@ def make_samples(core: Core, q: np.ndarray, *, seed: int = 0, limit: int | None 
     # "nothing to do" is learned like a service: what matters to it is found the same way
     performed = np.concatenate([performed, ~performed.any(axis=2, keepdims=True)], axis=2)
     sensitive = relevance(space, performed)
-    codes = point_codes(core)
+    codes = start_codes(core.home)
     masks = sufficient_masks(space, performed, sensitive, codes)
-
-    rng = np.random.default_rng(seed)
-    n_points = codes.shape[0]
-    readings: list[np.ndarray | None] = []
-    for j, dim in enumerate(space.dims):
-        if not dim.numeric:
-            readings.append(None)
-            continue
-        feature = core.home.features[j]
-        bounds = np.array(finite_span(feature.bins)).reshape(-1, 2)  # type: ignore[arg-type]
-        low, high = bounds[codes[:, j], 0], bounds[codes[:, j], 1]
-        if dim.kind == "clock":  # a bin wrapping midnight: draw on the unwrapped span
-            high = np.where(high <= low, high + 24, high)
-        # two decimals, rounded down so that a reading never leaves its half-open bin
-        values = np.maximum(np.floor((low + (high - low) * rng.random(n_points)) * 100) / 100, low)
-        readings.append(values % 24 if dim.kind == "clock" else values)
-
-    numeric = np.full((n_points, len(space.dims)), np.nan)
-    for j, r in enumerate(readings):
-        if r is not None:
-            numeric[:, j] = r
-    small = np.int8 if max(len(d.values) for d in space.dims) < 128 else np.int16
+    readings = draw_readings(space, codes, rng if rng is not None else np.random.default_rng(seed))
     return SampleSet(
         space=space,
-        codes=codes.astype(small),
-        readings=numeric,
-        positions=positions.reshape(n_points, -1),
+        codes=codes.astype(code_dtype(space)),
+        readings=readings,
+        positions=positions.reshape(codes.shape[0], -1),
         masks=masks,
     )
+
+
+def code_dtype(space: Space) -> type:
+    """The smallest integer type for the codes of a space."""
+    return np.int8 if max(len(d.values) for d in space.dims) < 128 else np.int16
+
+
+def group_samples(home: Home, policy: Policy, i: int, *, seed: int = 0) -> SampleSet:
+    """The samples of every start state of group ``i`` of a policy (SPEC §4.1), never of the
+    joint space: the group's projection, with the group's place in the home in ``dims`` and
+    ``services``. A joint policy's one group gives the home's samples as before."""
+    group = policy.groups[i]
+    if policy.joint:
+        return make_samples(Core(home), policy.q(i), seed=seed)
+    samples = make_samples(
+        Core(project(home, group)), policy.q(i), rng=np.random.default_rng([seed, group.index])
+    )
+    n_f = len(home.features)
+    samples.dims = tuple(range(n_f)) + tuple(n_f + d for d in group.device_index)
+    samples.services = group.service_index
+    return samples
+
+
+def policy_samples(home: Home, policy: Policy, *, seed: int = 0, ahead: int = 2) -> Iterator[SampleSet]:
+    """:func:`group_samples` of every group that has services, in group order.
+
+    The next ``ahead`` groups are made in a worker thread while the caller uses the current
+    one (making samples is NumPy and compiled code that releases the GIL; learning them into
+    a tree is Python), so at most ``ahead + 1`` groups' samples are in memory at once.
+    """
+    from concurrent.futures import ThreadPoolExecutor
+
+    todo = [i for i, group in enumerate(policy.groups) if group.services]
+    with ThreadPoolExecutor(max_workers=1) as pool:
+        pending = [pool.submit(group_samples, home, policy, i, seed=seed) for i in todo[:ahead]]
+        for k in range(len(todo)):
+            if k + ahead < len(todo):
+                pending.append(pool.submit(group_samples, home, policy, todo[k + ahead], seed=seed))
+            yield pending.pop(0).result()

@@ -15,12 +15,10 @@ The learner never touches SQL: this module maps the tree to rows and back.
 
 from __future__ import annotations
 
-import io
 import json
 import os
 import random
 import time
-import zlib
 from collections.abc import Iterator
 from contextlib import contextmanager
 from datetime import UTC, datetime
@@ -54,7 +52,9 @@ from sqlalchemy.orm import DeclarativeBase, Mapped, mapped_column
 
 from homecog.errors import HomecogError
 from homecog.home.model import Home
+from homecog.knowledge import sample_log
 from homecog.knowledge.ihdr import Cluster, IHDRTree, Numeric
+from homecog.knowledge.sample_log import SampleLog
 from homecog.knowledge.samples import SampleSet
 from homecog.knowledge.space import Point
 from homecog.paths import data_dir
@@ -238,17 +238,6 @@ def _decode_conditions(text_: str) -> dict[int, Any]:
     return out
 
 
-def _pack(arrays: dict[str, np.ndarray]) -> bytes:
-    buf = io.BytesIO()
-    np.savez(buf, **arrays)
-    return zlib.compress(buf.getvalue(), 6)
-
-
-def _unpack(data: bytes) -> dict[str, np.ndarray]:
-    with np.load(io.BytesIO(zlib.decompress(data)), allow_pickle=False) as z:
-        return {k: z[k] for k in z.files}
-
-
 class Store:
     """The knowledge of one home in one database.
 
@@ -415,11 +404,15 @@ class Store:
         return version
 
     # -- writing --------------------------------------------------------------------------------
-    def save_build(self, tree: IHDRTree, samples: SampleSet, *, seconds: float | None = None) -> None:
+    def save_build(
+        self, tree: IHDRTree, samples: SampleSet | SampleLog, *, seconds: float | None = None
+    ) -> None:
         """Store a freshly built tree and its samples, in one transaction.
 
-        Users' corrections already in the log are replayed on the new tree, so a rebuild
-        (another mode, a retrained Q table) loses none of them.
+        ``samples`` is a build's :class:`~homecog.knowledge.sample_log.SampleLog` (compact), or
+        one sample set stored with its codes and readings. Users' corrections already in the
+        log are replayed on the new tree, so a rebuild (another mode, a retrained Q table)
+        loses none of them.
         """
         corrections = self._corrections()
         for kind, user, payload in corrections:
@@ -448,42 +441,76 @@ class Store:
             self._write_clusters(conn, tree, None)
             for user in tree.users:
                 self._write_clusters(conn, tree, user)
-            parts = max(1, -(-len(samples) // SAMPLES_PER_ROW))
-            numeric = [j for j, d in enumerate(samples.space.dims) if d.numeric]
-            rows = []
-            for part in range(parts):
-                chunk = slice(part * SAMPLES_PER_ROW, (part + 1) * SAMPLES_PER_ROW)
-                rows.append(
-                    {
-                        "kind": "samples",
-                        "user": None,
-                        "created_at": now,
-                        "payload": json.dumps(
-                            {
-                                "build": build_id,
-                                "part": part,
-                                "parts": parts,
-                                "mode": tree.mode,
-                                "seconds": seconds,
-                                "count": len(samples.codes[chunk]),
-                            }
-                        ),
-                        "data": _pack(
-                            {
-                                "codes": samples.codes[chunk],
-                                "readings": samples.readings[chunk][:, numeric],
-                                "numeric": np.array(numeric, dtype=np.int64),
-                                "positions": samples.positions[chunk],
-                                "masks": samples.masks[chunk],
-                            }
-                        ),
-                    }
-                )
+            if isinstance(samples, SampleLog):
+                rows = self._log_rows(samples, build_id, tree.mode, seconds, now)
+            else:
+                rows = self._sample_rows(samples, build_id, tree.mode, seconds, now)
             conn.execute(insert(ExperienceRow), rows)
             for user in tree.users:
                 self._ensure_user(conn, user)
                 conn.execute(update(UserRow).where(UserRow.name == user).values(version=UserRow.version + 1))
         self._versions = {}
+
+    @staticmethod
+    def _log_rows(
+        log: SampleLog, build_id: int, mode: str, seconds: float | None, now: datetime
+    ) -> list[dict[str, Any]]:
+        return [
+            {
+                "kind": "samples",
+                "user": None,
+                "created_at": now,
+                "payload": json.dumps(
+                    {
+                        **payload,
+                        "build": build_id,
+                        "part": i,
+                        "parts": len(log.parts),
+                        "mode": mode,
+                        "seconds": seconds,
+                    }
+                ),
+                "data": blob,
+            }
+            for i, (payload, blob) in enumerate(log.parts)
+        ]
+
+    @staticmethod
+    def _sample_rows(
+        samples: SampleSet, build_id: int, mode: str, seconds: float | None, now: datetime
+    ) -> list[dict[str, Any]]:
+        parts = max(1, -(-len(samples) // SAMPLES_PER_ROW))
+        numeric = [j for j, d in enumerate(samples.space.dims) if d.numeric]
+        rows = []
+        for part in range(parts):
+            chunk = slice(part * SAMPLES_PER_ROW, (part + 1) * SAMPLES_PER_ROW)
+            rows.append(
+                {
+                    "kind": "samples",
+                    "user": None,
+                    "created_at": now,
+                    "payload": json.dumps(
+                        {
+                            "build": build_id,
+                            "part": part,
+                            "parts": parts,
+                            "mode": mode,
+                            "seconds": seconds,
+                            "count": len(samples.codes[chunk]),
+                        }
+                    ),
+                    "data": sample_log.pack(
+                        {
+                            "codes": samples.codes[chunk],
+                            "readings": samples.readings[chunk][:, numeric],
+                            "numeric": np.array(numeric, dtype=np.int64),
+                            "positions": samples.positions[chunk],
+                            "masks": samples.masks[chunk],
+                        }
+                    ),
+                }
+            )
+        return rows
 
     def _write_nodes(self, conn: Connection, tree: IHDRTree) -> None:
         conn.execute(
@@ -646,11 +673,18 @@ class Store:
             raise StoreError(f"--db {redact(self.url)}: the log holds no samples; run homecog build")
         last = max(builds)
         parts = [r for r in rows if r.kind == "samples" and json.loads(r.payload)["build"] == last]
+        parts.sort(key=lambda r: json.loads(r.payload)["part"])
         meta = json.loads(parts[0].payload)
-        arrays = [_unpack(r.data) for r in sorted(parts, key=lambda r: json.loads(r.payload)["part"])]
-        samples = self._samples_from(arrays)
         tree = IHDRTree(self.home, mode=meta["mode"])
-        tree.learn_many(samples)
+        if meta.get("format") == sample_log.FORMAT:
+            logged = [(json.loads(r.payload), r.data) for r in parts]
+            try:
+                for samples in sample_log.regenerate(self.home, logged):
+                    tree.learn_many(samples)
+            except ValueError as e:
+                raise StoreError(f"--db {redact(self.url)}: {e}") from None
+        else:
+            tree.learn_many(self._samples_from([sample_log.unpack(r.data) for r in parts]))
         for r in rows:
             if r.kind in ("correction", "sample"):
                 tree._replay(r.kind, r.user, json.loads(r.payload))

@@ -161,8 +161,13 @@ def run_episodes(
     eps_min: float,
     max_steps: int,
     rng: np.ndarray,
+    starts: np.ndarray,
 ) -> int:
-    """Algorithm 1 for ``episodes`` episodes numbered from ``t0 + 1``; returns the steps taken."""
+    """Algorithm 1 for ``episodes`` episodes numbered from ``t0 + 1``; returns the steps taken.
+
+    Episodes start in a uniformly random context and device state, or, when ``starts`` is not
+    empty, in ``starts[e]`` (``c · 2^devices + h``): a sweep over every start state.
+    """
     (
         n_devices,
         need_count,
@@ -185,8 +190,12 @@ def run_episodes(
     steps = 0
     for e in range(episodes):
         eps = epsilon(t0 + e + 1, eps_c, eps_min)
-        c = _next(rng) % n_contexts
-        h = _next(rng) % n_h
+        if starts.size:
+            c = starts[e] // n_h
+            h = starts[e] % n_h
+        else:
+            c = _next(rng) % n_contexts
+            h = _next(rng) % n_h
         k = need_count[c]
         n = (1 << k) - 1
         care_c, want_c = care[c], want[c]
@@ -210,6 +219,9 @@ def run_episodes(
             sarsa_update(q, s, a, r, gamma * q[s2, a2], alpha)
             s, h, n, a, d = s2, h2, n2, a2, d2
     return steps
+
+
+NO_STARTS = np.zeros(0, dtype=np.int64)
 
 
 def seed_rng(seed: int) -> np.ndarray:
@@ -276,6 +288,7 @@ def train(
                 config.epsilon_min,
                 config.max_steps,
                 rng,
+                NO_STARTS,
             )
         )
         done += n
@@ -289,16 +302,3 @@ def train(
     rate = greedy_optimal_rate(core, q_table.q)
     q_table.greedy_optimal_rate = rate
     return TrainResult(q_table=q_table, episodes=done, steps=steps, seconds=seconds, greedy_optimal_rate=rate)
-
-
-def greedy_services(
-    core: Core, q: np.ndarray, c: int, h: int, n: int | None = None, limit: int = 64
-) -> list[int]:
-    """The services of the greedy roll-out from (c, h, n) until the optimum or ``limit``."""
-    n = core.full_needs(c) if n is None else n
-    out: list[int] = []
-    while core.distance(c, h, n) > 0 and len(out) < limit:
-        a = int(argmax_row(q, core.index(c, h, n)))
-        out.append(a)
-        h, n, *_ = core.step(c, h, n, a)
-    return out

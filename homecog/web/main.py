@@ -3,6 +3,7 @@
 ========================  ===================================================================
 ``GET /api/home``         the home: features, devices, services, floor plan
 ``GET /api/context``      the current context, as ``POST /api/cognize`` takes it
+``GET /api/source``       where the context comes from, and whether it is connected
 ``PUT /api/context``      manual mode: set some features or devices
 ``POST /api/cognize``     ``{"context": {...}, "user": ...}`` → services, unknown, explanations
 ``POST /api/corrections`` ``{"context": {...}, "want": [...], "user": ...}`` → added, rejected
@@ -32,7 +33,7 @@ from homecog.web import errors
 from homecog.web.deps import require_token, require_token_or_query
 from homecog.web.fastpath import BodyLimit, CognizeFastPath
 from homecog.web.models import HomeModels
-from homecog.web.routes import cognize, context, corrections, events, history, home, page, plan
+from homecog.web.routes import cognize, context, corrections, events, history, home, page, plan, source
 from homecog.web.runtime import Runtime
 from homecog.web.settings import Settings
 
@@ -71,6 +72,7 @@ def create_app(runtime: Runtime, settings: Settings | None = None) -> ASGIApp:
     for make in (context.router, cognize.router, corrections.router, plan.router):
         app.include_router(make(models), **guarded)
     app.include_router(history.router, **guarded)
+    app.include_router(source.router, **guarded)
     if settings.token is not None:
         guarded = {
             "dependencies": [Security(require_token_or_query)],

@@ -120,6 +120,22 @@ def home_out(home: Home) -> HomeOut:
     )
 
 
+class SourceOut(BaseModel):
+    """Where the context comes from and whether it is connected; a real home's source says more
+    (absent fields: the source does not report them)."""
+
+    kind: str = Field(description="simulated, manual, mqtt or home_assistant")
+    connected: bool
+    url: str | None = None
+    since: float | None = Field(None, description="Connected since: seconds since 1970 (UTC).")
+    version: str | None = Field(None, description="Home Assistant's version.")
+    reconnects: int | None = None
+    missing: list[str] | None = Field(None, description="Features and devices without a value yet.")
+    skipped: int | None = Field(None, description="States that could not be read, skipped.")
+    skipped_switches: int | None = None
+    last_error: str | None = None
+
+
 # -- answers -----------------------------------------------------------------------------------
 class ExplanationOut(BaseModel):
     service: str

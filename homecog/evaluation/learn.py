@@ -1,0 +1,133 @@
+"""Every method of ``eval`` and ``replay`` learned from one policy (SPEC §9, §4.1).
+
+The trees learn the samples of every group, one group at a time. K-means and the Hoeffding
+trees learn from samples of the whole home; for a policy learned group by group these are
+random start states of the home whose services are read off the groups' samples in the same
+pass (a start state performs a service exactly when its group's part does), so no stage ever
+enumerates the joint space. A joint policy gives them its samples as before.
+
+A baseline that cannot run at a home's size is left out and the reason said
+(:data:`HOEFFDING_BUDGET`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from homecog.errors import HomecogError
+from homecog.evaluation.methods import METHODS, HoeffdingMethod, KMeansMethod, Method, TreeMethod
+from homecog.home.encoding import context_index
+from homecog.home.model import Home
+from homecog.knowledge.ihdr import IHDRTree
+from homecog.knowledge.sample_log import SampleLog
+from homecog.knowledge.samples import SampleSet, draw_readings, policy_samples
+from homecog.knowledge.space import Space
+from homecog.learning.policy import Policy
+
+Progress = Callable[[str], None]
+#: Random start states drawn for K-means and the Hoeffding trees of a grouped policy.
+DRAWS = 30_000
+#: Most (instances × per-service trees) the Hoeffding baseline learns: river learns about
+#: 50,000 instances a second here, so a budget of 4 million is a minute or two.
+HOEFFDING_BUDGET = 4_000_000
+HOEFFDING_SAMPLES = 8_000
+
+
+class EvaluationError(HomecogError):
+    """Bad evaluation input: an incompatible truth home, a broken scenario file."""
+
+
+@dataclass
+class Learned:
+    """The methods learned, those left out (with why), and the build's sample log."""
+
+    methods: dict[str, Method]
+    skipped: dict[str, str] = field(default_factory=dict)
+    log: SampleLog | None = None
+    tree: IHDRTree | None = None  # the multi tree (for corrections), learned even if not asked
+
+
+def _draw_starts(home: Home, n: int, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+    """``n`` random start states of the whole home: codes (features, then devices) and readings."""
+    radix = np.array([f.radix for f in home.features])
+    ctx = (rng.random((n, len(radix))) * radix).astype(np.int64)
+    dev = rng.integers(0, 2, (n, len(home.devices)))
+    codes = np.concatenate([ctx, dev], axis=1)
+    return codes, draw_readings(Space(home), codes, rng)
+
+
+def learn_methods(
+    home: Home,
+    policy: Policy,
+    names: Sequence[str],
+    *,
+    seed: int = 0,
+    kmeans_k: int = 64,
+    keep_log: bool = False,
+    progress: Progress | None = None,
+) -> Learned:
+    """Learn every method named (and the multi tree) from a policy, one group at a time."""
+    unknown = [n for n in names if n not in METHODS]
+    if unknown:
+        raise EvaluationError(f"unknown method {unknown[0]!r}; expected some of {', '.join(METHODS)}")
+    wanted = [m for m in ("multi", "paper") if m in names or (m == "multi" and keep_log)]
+    trees = {mode: IHDRTree(home, mode=mode) for mode in wanted}
+    baselines = [n for n in names if n in ("kmeans", "hoeffding")]
+    log = SampleLog(seed=seed, joint=policy.joint) if keep_log else None
+    draws: SampleSet | None = None
+    if baselines and not policy.joint:
+        codes, readings = _draw_starts(home, DRAWS, np.random.default_rng([seed, 7]))
+        n_f = len(home.features)
+        ctx = np.array([context_index(home, row) for row in codes[:, :n_f].tolist()], dtype=np.int64)
+        positions = np.full((DRAWS, len(home.services)), -1, dtype=np.int8)
+        draws = SampleSet(
+            space=Space(home),
+            codes=codes.astype(np.int16),
+            readings=readings,
+            positions=positions,
+            masks=np.zeros((DRAWS, len(home.services) + 1), dtype=np.int64),
+        )
+    if progress:
+        progress(f"learning from the samples of {len(policy.groups)} group(s) ...")
+    groups = [i for i, g in enumerate(policy.groups) if g.services]
+    for i, samples in zip(groups, policy_samples(home, policy, seed=seed), strict=True):
+        for tree in trees.values():
+            tree.learn_many(samples)
+        if log is not None:
+            log.add(samples, i)
+        if draws is not None:
+            group = policy.groups[i]
+            h = np.zeros(DRAWS, dtype=np.int64)
+            for k, d in enumerate(group.device_index):
+                h |= codes[:, n_f + d].astype(np.int64) << k
+            rows = ctx * (1 << len(group.devices)) + h
+            draws.positions[:, list(group.service_index)] = samples.positions[rows]
+        elif baselines and policy.joint:
+            draws = samples
+    out: dict[str, Method] = {}
+    skipped: dict[str, str] = {}
+    for name in names:
+        if name in trees:
+            out[name] = TreeMethod(trees[name])
+            continue
+        assert draws is not None
+        if name == "kmeans":
+            if progress:
+                progress("learning kmeans ...")
+            out[name] = KMeansMethod(draws, k=kmeans_k, seed=seed)
+        elif name == "hoeffding":
+            work = HOEFFDING_SAMPLES * len(home.services)
+            if work > HOEFFDING_BUDGET:
+                skipped[name] = (
+                    f"not run: one river tree per service ({len(home.services)}) learning "
+                    f"{HOEFFDING_SAMPLES:,} samples each is {work:,} updates, beyond the "
+                    f"{HOEFFDING_BUDGET:,} that take a minute or two here"
+                )
+                continue
+            if progress:
+                progress("learning hoeffding ...")
+            out[name] = HoeffdingMethod(draws, max_samples=HOEFFDING_SAMPLES, seed=seed)
+    return Learned(methods=out, skipped=skipped, log=log, tree=trees.get("multi"))

@@ -1,0 +1,175 @@
+"""Independent groups of devices, from the robot's own action model (SPEC §4.1).
+
+Two devices are in one group when one service sets both, or when a prohibited rule of a
+service that sets one names the other's state. A service belongs to the group of the
+devices it sets; an interaction service is a group of its own unless a prohibited rule ties
+it to a device. The comfort and needs rules — the reward the robot is learning — never
+decide a group.
+
+No service of one group changes, or is forbidden by, the devices of another, so each group
+is a small environment of its own over (context, the group's devices, the group's pending
+needs): learning, the greedy roll-out and the ground truth all split along the groups, and
+their cost grows with the number of devices instead of with 2^devices.
+
+>>> from homecog.home import load_home
+>>> home = load_home("paper")
+>>> [(g.devices, len(g.services)) for g in device_groups(home)][:3]
+[(('window', 'ac_living', 'ac_bedroom'), 6), (('curtain',), 2), (('tv_living',), 2)]
+>>> [g.services for g in device_groups(home) if not g.devices]
+[('SendDrinks',), ('CallToWakeup',), ('RemindToSleep',), ('ChargeItSelf',)]
+>>> sub = project(home, device_groups(home)[0])
+>>> sub.device_names, sub.service_names[:2]
+(('window', 'ac_living', 'ac_bedroom'), ('OpenWindow', 'TurnOnACL'))
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from homecog.home.model import ComfortRule, Condition, Home, Service
+
+
+@dataclass(frozen=True)
+class Group:
+    """Devices and services that act on each other, and on nothing else.
+
+    ``device_index`` and ``service_index`` are their positions in the whole home.
+    """
+
+    index: int
+    devices: tuple[str, ...]
+    services: tuple[str, ...]
+    device_index: tuple[int, ...]
+    service_index: tuple[int, ...]
+
+    @property
+    def label(self) -> str:
+        """How messages name the group: its devices, or its service when it has none."""
+        names = self.devices or self.services
+        shown = ", ".join(names[:4]) + (f" and {len(names) - 4} more" if len(names) > 4 else "")
+        return f"group {self.index} ({shown})"
+
+
+def _named_devices(cond: Condition) -> set[int]:
+    return {d for d, _ in cond.devices}
+
+
+_CACHE: dict[str, tuple[Group, ...]] = {}
+
+
+def device_groups(home: Home) -> tuple[Group, ...]:
+    """The home's independent groups, in the order of their first device (then service).
+
+    Devices that no service sets or names form groups without services: nothing can change
+    them. Union-find over devices and services; remembered per content hash.
+    """
+    key = home.content_hash
+    if key and key in _CACHE:
+        return _CACHE[key]
+    groups = _find_groups(home)
+    if key:
+        if len(_CACHE) >= 64:
+            _CACHE.clear()
+        _CACHE[key] = groups
+    return groups
+
+
+def _find_groups(home: Home) -> tuple[Group, ...]:
+    n_d = len(home.devices)
+    parent = list(range(n_d + len(home.services)))
+
+    def find(x: int) -> int:
+        while parent[x] != x:
+            parent[x] = parent[parent[x]]
+            x = parent[x]
+        return x
+
+    def union(x: int, y: int) -> None:
+        rx, ry = find(x), find(y)
+        if rx != ry:
+            parent[max(rx, ry)] = min(rx, ry)
+
+    for a, service in enumerate(home.services):
+        touched = {home.device_index(d) for d, _ in service.sets}
+        for cond in home.prohibited[a]:
+            touched |= _named_devices(cond)
+        for d in touched:
+            union(n_d + a, d)
+
+    members: dict[int, list[int]] = {}
+    for x in range(len(parent)):
+        members.setdefault(find(x), []).append(x)
+    groups = []
+    for i, root in enumerate(sorted(members)):
+        nodes = members[root]
+        devs = tuple(x for x in nodes if x < n_d)
+        svcs = tuple(x - n_d for x in nodes if x >= n_d)
+        groups.append(
+            Group(
+                index=i,
+                devices=tuple(home.devices[d].name for d in devs),
+                services=tuple(home.services[a].name for a in svcs),
+                device_index=devs,
+                service_index=svcs,
+            )
+        )
+    return tuple(groups)
+
+
+def group_of_service(home: Home) -> tuple[int, ...]:
+    """Per service (in home order), the index of its group."""
+    out = [0] * len(home.services)
+    for g in device_groups(home):
+        for a in g.service_index:
+            out[a] = g.index
+    return tuple(out)
+
+
+def project(home: Home, group: Group) -> Home:
+    """The home seen by one group: every context feature, the group's devices and services,
+    their comfort, needs and prohibited rules (device conditions renumbered), the rewards.
+
+    Learning the projection is learning the group: its optimum is the home's optimum on the
+    group's devices and needs, and its distance is the group's share of the home's distance.
+    """
+    local = {d: i for i, d in enumerate(group.device_index)}
+
+    def renumber(cond: Condition) -> Condition:
+        return Condition(
+            features=cond.features,
+            devices=tuple((local[d], allowed) for d, allowed in cond.devices),
+        )
+
+    comfort = tuple(
+        tuple(ComfortRule(when=renumber(r.when), want=r.want) for r in home.comfort[d])
+        for d in group.device_index
+    )
+    services = tuple(
+        Service(name=s.name, category=s.category, sets=s.sets, description=s.description)
+        for s in (home.services[a] for a in group.service_index)
+    )
+    projected = Home(
+        name=f"{home.name}[{group.index}]",
+        features=home.features,
+        devices=tuple(home.devices[d] for d in group.device_index),
+        services=services,
+        comfort=comfort,
+        needs=tuple(tuple(renumber(c) for c in home.needs[a]) for a in group.service_index),
+        prohibited=tuple(tuple(renumber(c) for c in home.prohibited[a]) for a in group.service_index),
+        rewards=home.rewards,
+        description=f"{group.label} of {home.name}",
+        source=home.source,
+    )
+    object.__setattr__(projected, "content_hash", f"{home.content_hash}/{group.index}")
+    return projected
+
+
+def whole(home: Home) -> Group:
+    """The whole home as one group: the paper's single joint table (``train --joint``)."""
+    return Group(
+        index=0,
+        devices=home.device_names,
+        services=home.service_names,
+        device_index=tuple(range(len(home.devices))),
+        service_index=tuple(range(len(home.services))),
+    )

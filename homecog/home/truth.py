@@ -1,0 +1,127 @@
+"""The ground truth of a context (SPEC §3, §9): the sets of services that take it to its
+optimum — the services of a sequence in which each service lowers the distance and none is
+prohibited.
+
+No service of one independent group (:mod:`homecog.home.groups`) changes another group's
+devices or needs, or is forbidden by them, so a set is optimal exactly when its part in every
+group is optimal for that group: the search runs group by group and its cost grows with the
+number of devices, not with 2^devices. The optimal sets of the home are the products of the
+groups' sets.
+
+>>> from homecog.home import load_home_text
+>>> home = load_home_text('''
+... name: den
+... context: {who: {kind: categorical, values: [nobody, someone]}}
+... devices: {hood: {}, speaker: {}, heater: {}}
+... services:
+...   HoodOff: {category: off, set: {hood: off}}
+...   MusicOff: {category: off, set: {speaker: off}}
+...   AllQuiet: {category: off, set: {hood: off, speaker: off}}
+...   HeatOn: {category: on, set: {heater: on}}
+... comfort:
+...   hood: [{want: off}]
+...   speaker: [{want: off}]
+...   heater: [{when: {who: [someone]}, want: on}, {want: off}]
+... ''')
+>>> codes, states = home.discretize({"who": "someone", "hood": "on", "speaker": "on", "heater": "off"})
+>>> [sorted(s) for s in optimal_service_sets(home, codes, states)][:2]
+[['AllQuiet', 'HeatOn'], ['HeatOn', 'HoodOff', 'MusicOff']]
+"""
+
+from __future__ import annotations
+
+import itertools
+from collections.abc import Sequence
+
+from homecog.home.groups import Group, device_groups
+from homecog.home.model import Home
+
+Choice = tuple[frozenset[int], ...]  # a group's optimal sets of service positions, best first
+
+
+def _key(home: Home, chosen: frozenset[int]) -> tuple[int, int, tuple[int, ...]]:
+    return (len(chosen), sum(len(home.services[a].sets) for a in chosen), tuple(sorted(chosen)))
+
+
+def group_choices(
+    home: Home,
+    group: Group,
+    codes: Sequence[int],
+    states: Sequence[bool],
+    limit: int = 256,
+    *,
+    wanted: Sequence[bool | None] | None = None,
+    needed: Sequence[int] | None = None,
+) -> Choice:
+    """The optimal sets of one group's services (smallest first, then fewest devices set, then
+    service order); where the rules leave no way, one setter per wrong device, without order.
+    ``wanted`` and ``needed`` (the home's, for this context) are computed when not given."""
+    wanted = home.wanted(codes) if wanted is None else wanted
+    needed = home.needs_of(codes) if needed is None else needed
+    needs = frozenset(a for a in needed if a in group.service_index)
+    mine = group.device_index
+    effects = {
+        a: tuple((home.device_index(d), v) for d, v in home.services[a].sets) for a in group.service_index
+    }
+
+    def distance(st: tuple[bool, ...], pending: frozenset[int]) -> int:
+        return sum(1 for d in mine if wanted[d] is not None and st[d] != wanted[d]) + len(pending)
+
+    memo: dict[tuple[tuple[bool, ...], frozenset[int]], set[frozenset[int]]] = {}
+
+    def paths(st: tuple[bool, ...], pending: frozenset[int]) -> set[frozenset[int]]:
+        key = (st, pending)
+        if key in memo:
+            return memo[key]
+        d = distance(st, pending)
+        out: set[frozenset[int]] = {frozenset()} if d == 0 else set()
+        for a, effect in effects.items():
+            if d == 0 or len(out) >= limit or home.is_prohibited(a, codes, st):
+                continue
+            if effect:
+                nxt = list(st)
+                for dev, value in effect:
+                    nxt[dev] = value
+                st2, pend2 = tuple(nxt), pending
+            else:
+                st2, pend2 = st, pending - {a}
+            if distance(st2, pend2) < d:
+                out |= {rest | {a} for rest in paths(st2, pend2)}
+        memo[key] = out
+        return out
+
+    start = tuple(bool(x) for x in states)
+    found = paths(start, needs)
+    if not found:  # conflicting rules: fall back to one setter per wrong device, no order
+        chosen = set(needs)
+        for d in mine:
+            w = wanted[d]
+            if w is not None and start[d] != w:
+                setter = next((a for a, e in effects.items() if (d, w) in e), None)
+                if setter is not None:
+                    chosen.add(setter)
+        found = {frozenset(chosen)}
+    return tuple(sorted(found, key=lambda c: _key(home, c)))
+
+
+def choices(home: Home, codes: Sequence[int], states: Sequence[bool], limit: int = 256) -> list[Choice]:
+    """:func:`group_choices` of every group with services, in group order."""
+    wanted, needed = home.wanted(codes), home.needs_of(codes)
+    return [
+        group_choices(home, g, codes, states, limit, wanted=wanted, needed=needed)
+        for g in device_groups(home)
+        if g.services
+    ]
+
+
+def optimal_service_sets(
+    home: Home, codes: Sequence[int], states: Sequence[bool], limit: int = 256
+) -> list[frozenset[str]]:
+    """Every optimal set of the home (at most ``limit``), best first as in :func:`group_choices`;
+    the first is the union of every group's first."""
+    per_group = choices(home, codes, states, limit)
+    fixed = frozenset().union(*(c[0] for c in per_group if len(c) == 1))
+    open_ = [c for c in per_group if len(c) > 1]
+    combos = [fixed.union(*parts) for parts in itertools.islice(itertools.product(*open_), limit)]
+    combos.sort(key=lambda c: _key(home, c))
+    return [frozenset(home.services[a].name for a in c) for c in combos]

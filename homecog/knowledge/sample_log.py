@@ -1,0 +1,108 @@
+"""A build's samples as the experience log keeps them, compactly (SPEC §6).
+
+A home of 48 or 1,000 devices has millions of samples; storing each one's codes and readings
+would make the log gigabytes. What the policy decided is stored — per sample the step at
+which each service is performed (int8) and what matters to it (an index into the few distinct
+masks) — and what is a function of the home and the seed is made again when the tree is
+rebuilt: the codes, which are every start state of the group in order, and the readings, drawn
+from the build's seed exactly as the build drew them.
+
+Rows hold at most :data:`ROWS_PER_PART` samples, so no database row grows past a few
+megabytes; a rebuild joins a group's parts before it learns them, in the build's order.
+"""
+
+from __future__ import annotations
+
+import io
+import zlib
+from collections.abc import Iterator
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from homecog.home.groups import device_groups, project
+from homecog.home.model import Home
+from homecog.knowledge.samples import SampleSet, code_dtype, draw_readings, start_codes
+from homecog.knowledge.space import Space
+
+FORMAT = 2
+ROWS_PER_PART = 1 << 17
+
+
+def pack(arrays: dict[str, np.ndarray]) -> bytes:
+    """Arrays as one compressed blob (``np.savez`` in zlib)."""
+    buf = io.BytesIO()
+    np.savez(buf, **arrays)
+    return zlib.compress(buf.getvalue(), 6)
+
+
+def unpack(data: bytes) -> dict[str, np.ndarray]:
+    """Inverse of :func:`pack`."""
+    with np.load(io.BytesIO(zlib.decompress(data)), allow_pickle=False) as z:
+        return {k: z[k] for k in z.files}
+
+
+@dataclass
+class SampleLog:
+    """What a build writes to the log: ``parts`` of (payload, blob), in learning order."""
+
+    seed: int
+    joint: bool
+    parts: list[tuple[dict[str, Any], bytes]] = field(default_factory=list)
+    count: int = 0
+
+    def add(self, samples: SampleSet, group: int) -> None:
+        """Log the samples of one group (or, joint, of the home)."""
+        masks, index = np.unique(samples.masks, return_inverse=True)
+        index = index.reshape(samples.masks.shape).astype(np.uint16 if len(masks) < 2**16 else np.uint32)
+        n = len(samples)
+        for start in range(0, max(n, 1), ROWS_PER_PART):
+            rows = slice(start, start + ROWS_PER_PART)
+            payload = {
+                "format": FORMAT,
+                "group": group,
+                "start": start,
+                "count": len(samples.positions[rows]),
+                "total": n,
+                "seed": self.seed,
+                "joint": self.joint,
+            }
+            blob = pack({"positions": samples.positions[rows], "masks": masks, "index": index[rows]})
+            self.parts.append((payload, blob))
+        self.count += n
+
+
+def regenerate(home: Home, rows: list[tuple[dict[str, Any], bytes]]) -> Iterator[SampleSet]:
+    """The sample sets of a logged build, one per group in learning order (see the module)."""
+    by_group: dict[int, list[tuple[dict[str, Any], bytes]]] = {}
+    for payload, blob in rows:
+        by_group.setdefault(payload["group"], []).append((payload, blob))
+    groups = device_groups(home)
+    for g, parts in by_group.items():
+        parts.sort(key=lambda p: p[0]["start"])
+        meta = parts[0][0]
+        arrays = [unpack(blob) for _, blob in parts]
+        positions = np.concatenate([a["positions"] for a in arrays])
+        masks = np.concatenate([a["masks"][a["index"]] for a in arrays])
+        if meta["joint"]:
+            seen, rng, dims, services = home, np.random.default_rng(meta["seed"]), None, None
+        else:
+            group = groups[g]
+            seen, rng = project(home, group), np.random.default_rng([meta["seed"], group.index])
+            n_f = len(home.features)
+            dims = tuple(range(n_f)) + tuple(n_f + d for d in group.device_index)
+            services = group.service_index
+        space = Space(seen)
+        codes = start_codes(seen)
+        if len(codes) != meta["total"] or len(positions) != meta["total"]:
+            raise ValueError(f"logged samples of group {g} do not fit the home")
+        yield SampleSet(
+            space=space,
+            codes=codes.astype(code_dtype(space)),
+            readings=draw_readings(space, codes, rng),
+            positions=positions,
+            masks=masks,
+            dims=dims,
+            services=services,
+        )

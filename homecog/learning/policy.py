@@ -1,0 +1,213 @@
+"""What a home learned: one Q table per independent group of devices, or the paper's one
+joint table, in one file tagged with the home's content hash (SPEC §4, §4.1).
+
+Each group's table is a :class:`~homecog.learning.qtable.QTable` of the group's projection
+(:func:`homecog.home.groups.project`): states (context, the group's devices, the group's
+pending needs) × the group's services. The paper's joint table is the special case of one
+group holding every device and service.
+
+The file is a zip of ``.npy`` members (``meta.npy`` and ``q<i>.npy``, readable by
+``numpy.load``), written member by member to a temporary file that is renamed into place,
+so neither memory nor a crash mid-way costs more than one group. Group tables are stored as
+float16 (see :func:`round_q`); the joint table keeps float32 and its tried marks, as before.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import tempfile
+import zipfile
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from homecog.errors import QTableError
+from homecog.home.groups import Group, device_groups, whole
+from homecog.home.model import Home
+from homecog.learning.qtable import QTable
+
+FORMAT = 2
+
+
+def round_q(q: np.ndarray) -> np.ndarray:
+    """A group's Q values rounded to float16, in place (the array stays float32).
+
+    The values are bounded by the reward's magnitude over (1 − γ), and what the policy reads
+    of them is which service is best in a state: with the paper's rewards a right service is
+    worth at least 1 and a wrong one at most −0.6, far beyond float16's resolution (1/128
+    around 10). Rounding as soon as a group is learned makes the stored table exactly the one
+    that the rate, the samples and every later stage use.
+    """
+    q[...] = q.astype(np.float16)
+    return q
+
+
+@dataclass
+class Policy:
+    """The Q tables of a home: ``tables[i]`` belongs to ``groups[i]``."""
+
+    home_name: str
+    home_hash: str
+    joint: bool
+    groups: tuple[Group, ...]
+    tables: list[QTable]
+    greedy_optimal_rate: float | None = None
+    config: dict[str, Any] = field(default_factory=dict)
+    seconds: float = 0.0
+
+    @property
+    def episodes(self) -> int:
+        return sum(t.episodes for t in self.tables)
+
+    @property
+    def steps(self) -> int:
+        return sum(t.steps for t in self.tables)
+
+    def q(self, i: int) -> np.ndarray:
+        """Group ``i``'s Q values as float32, the kernels' type."""
+        q = self.tables[i].q
+        return q if q.dtype == np.float32 else q.astype(np.float32)
+
+    @classmethod
+    def joint_from(cls, home: Home, table: QTable) -> Policy:
+        """The paper's single table as a policy of one group."""
+        return cls(
+            home_name=table.home_name,
+            home_hash=table.home_hash,
+            joint=True,
+            groups=(whole(home),),
+            tables=[table],
+            greedy_optimal_rate=table.greedy_optimal_rate,
+            config=dict(table.config),
+        )
+
+    def check_home(self, home: Home, source: str = "the Q table") -> None:
+        """Raise :class:`QTableError` unless this policy was learned for ``home``."""
+        if self.home_hash != home.content_hash:
+            raise QTableError(
+                f"{source} was made for home '{self.home_name}' ({self.home_hash[:12]}), not for "
+                f"home '{home.name}' ({home.content_hash[:12]}); train again for this home"
+            )
+
+    # -- the file ----------------------------------------------------------------------------
+    def save(self, path: str | Path) -> Path:
+        """Write the policy to ``path`` atomically and return the path."""
+        path = Path(path)
+        meta = {
+            "format": FORMAT,
+            "home_name": self.home_name,
+            "home_hash": self.home_hash,
+            "joint": self.joint,
+            "greedy_optimal_rate": self.greedy_optimal_rate,
+            "config": self.config,
+            "seconds": self.seconds,
+            "groups": [
+                {
+                    "devices": list(g.devices),
+                    "services": list(g.services),
+                    "episodes": t.episodes,
+                    "steps": t.steps,
+                    "rate": t.greedy_optimal_rate,
+                    "rng": int(t.rng[0]),
+                }
+                for g, t in zip(self.groups, self.tables, strict=True)
+            ],
+        }
+        try:
+            path.parent.mkdir(parents=True, exist_ok=True)
+            fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+        except OSError as e:
+            raise QTableError(f"{path}: cannot write: {e.strerror}") from None
+        try:
+            with (
+                os.fdopen(fd, "wb") as f,
+                zipfile.ZipFile(f, "w", zipfile.ZIP_DEFLATED, compresslevel=1) as z,
+            ):
+                _write(z, "meta", np.array(json.dumps(meta)))
+                for i, t in enumerate(self.tables):
+                    _write(z, f"q{i}", t.q if self.joint else t.q.astype(np.float16))
+                    if self.joint:
+                        _write(z, f"tried{i}", t.tried)
+            umask = os.umask(0)
+            os.umask(umask)
+            os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes it private; a Q table is not secret
+            os.replace(tmp, path)
+        except OSError as e:
+            Path(tmp).unlink(missing_ok=True)
+            raise QTableError(f"{path}: cannot write: {e.strerror}") from None
+        except BaseException:
+            Path(tmp).unlink(missing_ok=True)
+            raise
+        return path
+
+    @classmethod
+    def load(cls, path: str | Path, home: Home) -> Policy:
+        """Read a policy (or a joint Q table of the earlier format) made for ``home``."""
+        path = Path(path)
+        try:
+            with np.load(path, allow_pickle=False) as data:
+                meta = json.loads(str(data["meta"]))
+                if meta.get("format") == 1:
+                    return cls.joint_from(home, QTable.load(path, home))
+                if meta.get("format") != FORMAT:
+                    raise QTableError(f"{path}: not a homecog Q table (format {meta.get('format')!r})")
+                policy = cls._from_meta(meta, home, path)
+                for i, (g, t) in enumerate(zip(policy.groups, policy.tables, strict=True)):
+                    t.q = data[f"q{i}"]
+                    if policy.joint:
+                        t.tried = data[f"tried{i}"]
+                    if t.q.ndim != 2 or t.q.shape[1] != len(g.services):
+                        raise QTableError(f"{path}: not a homecog Q table (group {i} has the wrong shape)")
+        except FileNotFoundError:
+            raise QTableError(f"{path}: no such file") from None
+        except IsADirectoryError:
+            raise QTableError(f"{path}: is a directory, not a Q table") from None
+        except PermissionError:
+            raise QTableError(f"{path}: cannot read: permission denied") from None
+        except (OSError, EOFError, ValueError, KeyError, zipfile.BadZipFile, json.JSONDecodeError):
+            raise QTableError(f"{path}: not a homecog Q table") from None
+        return policy
+
+    @classmethod
+    def _from_meta(cls, meta: dict[str, Any], home: Home, path: Path) -> Policy:
+        if meta["home_hash"] != home.content_hash:
+            raise QTableError(
+                f"{path} was made for home '{meta['home_name']}' ({meta['home_hash'][:12]}), not for "
+                f"home '{home.name}' ({home.content_hash[:12]}); train again for this home"
+            )
+        groups = (whole(home),) if meta["joint"] else device_groups(home)
+        stored = [(tuple(g["devices"]), tuple(g["services"])) for g in meta["groups"]]
+        if stored != [(g.devices, g.services) for g in groups]:
+            raise QTableError(f"{path}: its groups are not this home's groups; train again")
+        tables = [
+            QTable(
+                home_name=f"{meta['home_name']}[{i}]",
+                home_hash=f"{meta['home_hash']}/{i}",
+                q=np.zeros((0, 0), dtype=np.float32),
+                tried=np.zeros((0, 1), dtype=np.int64),
+                episodes=g["episodes"],
+                steps=g["steps"],
+                greedy_optimal_rate=g["rate"],
+                config=meta["config"],
+                rng=np.array([g["rng"]], dtype=np.int64),
+            )
+            for i, g in enumerate(meta["groups"])
+        ]
+        return cls(
+            home_name=meta["home_name"],
+            home_hash=meta["home_hash"],
+            joint=meta["joint"],
+            groups=groups,
+            tables=tables,
+            greedy_optimal_rate=meta["greedy_optimal_rate"],
+            config=meta["config"],
+            seconds=meta.get("seconds", 0.0),
+        )
+
+
+def _write(z: zipfile.ZipFile, name: str, array: np.ndarray) -> None:
+    with z.open(f"{name}.npy", "w", force_zip64=True) as f:
+        np.lib.format.write_array(f, np.asanyarray(array), allow_pickle=False)

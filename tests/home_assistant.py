@@ -1,0 +1,275 @@
+"""A real Home Assistant 2024.3.3 for the tests and the benchmark, started from its own venv.
+
+``.ci/home_assistant.sh`` installs it into ``.ha-venv/`` (``$HOMECOG_TEST_HA_VENV`` names another
+venv); where it is not there, :func:`hass_binary` says why and the tests skip. Each instance gets
+a fresh configuration folder with the entities of ``tests/homes/studio_ha.yaml``: helpers
+(``input_*``) stand in for sensors, a template cover and a template light switch helpers the way
+real devices switch, and an automation switches the radio when ``input_boolean.trigger`` turns
+on (a change with a parent context). :meth:`HomeAssistant.onboard` makes the owner, a person of
+the household, and :meth:`HomeAssistant.add_user` another user, the robot, each with a
+long-lived token, without a browser.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import os
+import signal
+import socket
+import subprocess
+import time
+import urllib.error
+import urllib.parse
+import urllib.request
+from pathlib import Path
+from typing import Any
+
+import aiohttp
+
+ROOT = Path(__file__).resolve().parent.parent
+VERSION = "2024.3.3"
+CLIENT_ID = "http://127.0.0.1/"  # any URL will do as an OAuth client id
+START_TIMEOUT = 180.0  # seconds; about 30 s on an idle 2-core machine
+
+CONFIGURATION = """\
+homeassistant:
+  name: homecog test home
+  latitude: 52.52
+  longitude: 13.40
+  elevation: 34
+  unit_system: metric
+  time_zone: UTC
+  currency: EUR
+  country: DE
+http:
+  server_host: 127.0.0.1
+  server_port: {port}
+api:
+websocket_api:
+onboarding:
+auth:
+config:
+recorder:
+  commit_interval: 0
+  purge_keep_days: 30
+history:
+input_datetime:
+  clock: {{name: Clock, has_date: false, has_time: true, initial: "10:00"}}
+input_number:
+  light: {{name: Light, min: -100, max: 2000, step: 1, initial: 300, mode: box, unit_of_measurement: lx}}
+input_select:
+  activity: {{name: Activity, options: [working, relaxing, sleeping, away], initial: working}}
+input_boolean:
+  radio: {{name: Radio}}
+  blind_motor: {{name: Blind motor}}
+  desk_lamp_power: {{name: Desk lamp power}}
+  trigger: {{name: Trigger}}
+cover:
+  - platform: template
+    covers:
+      blind:
+        friendly_name: Blind
+        value_template: "{{{{ is_state('input_boolean.blind_motor', 'on') }}}}"
+        open_cover: {{service: input_boolean.turn_on, target: {{entity_id: input_boolean.blind_motor}}}}
+        close_cover: {{service: input_boolean.turn_off, target: {{entity_id: input_boolean.blind_motor}}}}
+light:
+  - platform: template
+    lights:
+      desk_lamp:
+        friendly_name: Desk lamp
+        value_template: "{{{{ is_state('input_boolean.desk_lamp_power', 'on') }}}}"
+        turn_on: {{service: input_boolean.turn_on, target: {{entity_id: input_boolean.desk_lamp_power}}}}
+        turn_off: {{service: input_boolean.turn_off, target: {{entity_id: input_boolean.desk_lamp_power}}}}
+automation:
+  - id: radio_with_the_trigger
+    alias: Radio with the trigger
+    trigger: {{platform: state, entity_id: input_boolean.trigger, to: "on"}}
+    action: {{service: input_boolean.toggle, target: {{entity_id: input_boolean.radio}}}}
+"""
+
+
+def ha_venv() -> Path:
+    """Where Home Assistant's own venv is looked for."""
+    return Path(os.environ.get("HOMECOG_TEST_HA_VENV") or ROOT / ".ha-venv")
+
+
+def hass_binary() -> tuple[Path | None, str]:
+    """The ``hass`` program of Home Assistant 2024.3.3, or None and why it cannot be had."""
+    venv = ha_venv()
+    hass = venv / "bin" / "hass"
+    if not hass.exists():
+        return None, f"no Home Assistant at {venv} (bash .ci/home_assistant.sh installs it there)"
+    stamp = venv / ".homecog-ha"
+    if stamp.exists() and VERSION not in stamp.read_text():
+        return None, f"{venv} holds another Home Assistant than {VERSION}: {stamp.read_text().strip()}"
+    return hass, ""
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+class HomeAssistant:
+    """One Home Assistant process on 127.0.0.1 with a configuration folder of its own."""
+
+    def __init__(self, hass: Path, config: Path, port: int | None = None) -> None:
+        self.hass = hass
+        self.config = config
+        self.port = port or free_port()
+        self.url = f"http://127.0.0.1:{self.port}"
+        self.proc: subprocess.Popen[bytes] | None = None
+        self.owner_token = ""
+        self.owner_id = ""
+        config.mkdir(parents=True, exist_ok=True)
+        (config / "configuration.yaml").write_text(CONFIGURATION.format(port=self.port, config=config))
+
+    @property
+    def recorder(self) -> Path:
+        return self.config / "home-assistant_v2.db"
+
+    # -- the process ---------------------------------------------------------------------------
+    def start(self, timeout: float = START_TIMEOUT) -> float:
+        """Start it and wait until its API answers; the seconds that took."""
+        begin = time.monotonic()
+        log = (self.config / "hass.out").open("ab")
+        # --skip-pip: everything it needs is in its venv, and it must not install at run time
+        self.proc = subprocess.Popen(
+            [str(self.hass), "-c", str(self.config), "--skip-pip", "--log-no-color"],
+            stdout=log,
+            stderr=subprocess.STDOUT,
+            start_new_session=True,
+        )
+        log.close()
+        while not self.answers():
+            if self.proc.poll() is not None:
+                raise RuntimeError(f"Home Assistant exited with {self.proc.returncode}: {self.log_tail()}")
+            if time.monotonic() - begin > timeout:
+                self.stop()
+                raise RuntimeError(f"Home Assistant did not answer within {timeout:g} s: {self.log_tail()}")
+            time.sleep(0.05)
+        return time.monotonic() - begin
+
+    def answers(self) -> bool:
+        """Whether the HTTP API answers (401 without a token is an answer)."""
+        try:
+            with urllib.request.urlopen(f"{self.url}/api/", timeout=1):
+                return True
+        except urllib.error.HTTPError:
+            return True
+        except OSError:
+            return False
+
+    def stop(self) -> None:
+        """Stop it as a service manager would (SIGTERM, then SIGKILL after 30 s)."""
+        proc, self.proc = self.proc, None
+        if proc is None or proc.poll() is not None:
+            return
+        proc.send_signal(signal.SIGTERM)
+        try:
+            proc.wait(30)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait(10)
+
+    def kill(self) -> None:
+        """End it at once, as a crash or a power cut does (SIGKILL): no goodbye on its connections."""
+        proc, self.proc = self.proc, None
+        if proc is not None and proc.poll() is None:
+            proc.kill()
+            proc.wait(10)
+
+    def log_tail(self, lines: int = 5) -> str:
+        path = self.config / "hass.out"
+        text = path.read_text(errors="replace") if path.exists() else ""
+        return " | ".join(text.strip().splitlines()[-lines:])
+
+    # -- users and tokens ------------------------------------------------------------------------
+    def onboard(self, name: str = "Kim", username: str = "kim", password: str = "kim-password-1") -> str:
+        """Make the owner (a person of the household) and return a long-lived token of theirs."""
+        code = self.post("/api/onboarding/users", {
+            "client_id": CLIENT_ID, "name": name, "username": username,
+            "password": password, "language": "en",
+        })["auth_code"]  # fmt: skip
+        access = self._token_for(code)
+        self.owner_token = self.ws(access, "auth/long_lived_access_token", client_name="tests", lifespan=30)
+        self.owner_id = self.ws(self.owner_token, "auth/current_user")["id"]
+        return self.owner_token
+
+    def add_user(self, name: str, username: str, password: str) -> tuple[str, str]:
+        """Another user (not an administrator) and a long-lived token of theirs: (user id, token)."""
+        user = self.ws(self.owner_token, "config/auth/create", name=name, group_ids=["system-users"])["user"]
+        self.ws(
+            self.owner_token,
+            "config/auth_provider/homeassistant/create",
+            user_id=user["id"],
+            username=username,
+            password=password,
+        )
+        flow = self.post(
+            "/auth/login_flow",
+            {"client_id": CLIENT_ID, "handler": ["homeassistant", None], "redirect_uri": CLIENT_ID},
+        )
+        done = self.post(
+            f"/auth/login_flow/{flow['flow_id']}",
+            {"client_id": CLIENT_ID, "username": username, "password": password},
+        )
+        access = self._token_for(done["result"])
+        return user["id"], self.ws(access, "auth/long_lived_access_token", client_name="homecog", lifespan=30)
+
+    def _token_for(self, code: str) -> str:
+        body = urllib.parse.urlencode(
+            {"grant_type": "authorization_code", "code": code, "client_id": CLIENT_ID}
+        ).encode()
+        with urllib.request.urlopen(f"{self.url}/auth/token", data=body, timeout=10) as r:
+            return json.load(r)["access_token"]
+
+    # -- talking to it ---------------------------------------------------------------------------
+    def post(self, path: str, body: dict[str, Any], token: str | None = None) -> Any:
+        request = urllib.request.Request(
+            f"{self.url}{path}",
+            data=json.dumps(body).encode(),
+            headers={
+                "Content-Type": "application/json",
+                **({"Authorization": f"Bearer {token}"} if token else {}),
+            },
+        )
+        with urllib.request.urlopen(request, timeout=10) as r:
+            return json.load(r)
+
+    def call(self, token: str, service: str, entity: str, **data: Any) -> Any:
+        """A service call over REST as a person's app makes it (``input_boolean.turn_on``)."""
+        domain, _, name = service.partition(".")
+        return self.post(f"/api/services/{domain}/{name}", {"entity_id": entity, **data}, token)
+
+    def state(self, token: str, entity: str) -> dict[str, Any]:
+        request = urllib.request.Request(
+            f"{self.url}/api/states/{entity}", headers={"Authorization": f"Bearer {token}"}
+        )
+        with urllib.request.urlopen(request, timeout=10) as r:
+            return json.load(r)
+
+    def ws(self, token: str, command: str, **kwargs: Any) -> Any:
+        """One WebSocket command's result."""
+
+        async def run() -> Any:
+            async with (
+                aiohttp.ClientSession() as session,
+                session.ws_connect(f"{self.url}/api/websocket") as ws,
+            ):
+                await ws.receive_json()  # auth_required
+                await ws.send_json({"type": "auth", "access_token": token})
+                answer = await ws.receive_json()
+                if answer["type"] != "auth_ok":
+                    raise RuntimeError(f"Home Assistant refused the token: {answer}")
+                await ws.send_json({"id": 1, "type": command, **kwargs})
+                while True:
+                    message = await ws.receive_json()
+                    if message.get("id") == 1 and message["type"] == "result":
+                        if not message["success"]:
+                            raise RuntimeError(f"{command}: {message['error']}")
+                        return message["result"]
+
+        return asyncio.run(run())
