@@ -12,7 +12,8 @@ from knowledge_fixtures import home, samples, tree
 from homecog.environment.core import Core
 from homecog.errors import ContextError
 from homecog.evaluation.scenarios import random_scenarios, scores
-from homecog.knowledge.ihdr import IDLE, IHDRTree, Numeric
+from homecog.knowledge.ihdr import IHDRTree
+from homecog.knowledge.model import IDLE, Numeric
 from homecog.knowledge.samples import _axes
 from homecog.knowledge.store import Store
 

@@ -13,6 +13,7 @@ Every method answers ``predict_one(point)`` with the services in priority order.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import Any, Protocol
 
 import numpy as np
@@ -113,11 +114,20 @@ class HoeffdingMethod:
 
     name = "hoeffding"
 
-    def __init__(self, samples: SampleSet, *, max_samples: int = 8_000, seed: int = 0) -> None:
+    def __init__(
+        self,
+        samples: SampleSet,
+        *,
+        max_samples: int = 8_000,
+        seed: int = 0,
+        features: list[list[str]] | None = None,
+    ) -> None:
         from river import tree as river_tree
 
         self.home = samples.space.home
         self.space = samples.space
+        # per service, the features its tree sees (default: all of them)
+        self.features = features or [list(self.space.names)] * len(self.home.services)
         rng = np.random.default_rng(seed)
         # a stream of max_samples instances: every sample once in a random order, and again
         # while the home has fewer (a Hoeffding tree splits only after enough instances)
@@ -132,8 +142,18 @@ class HoeffdingMethod:
         for row, i in enumerate(pick):
             x = self._features(samples.codes[i], samples.readings[i])
             for a, model in enumerate(self.models):
-                model.learn_one(x, bool(performed[row, a]))
+                model.learn_one(self._seen(x, a), bool(performed[row, a]))
         self.priority = _priorities(samples)
+
+    def _seen(self, x: dict[str, Any], a: int) -> dict[str, Any]:
+        names = self.features[a]
+        return x if len(names) == len(x) else {k: x[k] for k in names}
+
+    def learn_one(self, point: Point, wanted: Sequence[str]) -> None:
+        """Learn one context and the services wanted there (the replay's step)."""
+        x = self._features(point.codes, point.readings)
+        for a, model in enumerate(self.models):
+            model.learn_one(self._seen(x, a), self.home.services[a].name in wanted)
 
     def _features(self, codes: Any, readings: Any) -> dict[str, Any]:
         x: dict[str, Any] = {}
@@ -147,6 +167,6 @@ class HoeffdingMethod:
 
     def predict_one(self, point: Point) -> list[str]:
         x = self._features(point.codes, point.readings)
-        chosen = [a for a, model in enumerate(self.models) if model.predict_one(x)]
+        chosen = [a for a, model in enumerate(self.models) if model.predict_one(self._seen(x, a))]
         chosen.sort(key=lambda a: (self.priority[a], a))
         return [self.home.services[a].name for a in chosen]

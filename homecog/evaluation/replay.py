@@ -47,9 +47,7 @@ def _learn(method: Any, point: Any, wanted: Sequence[str]) -> None:
     if isinstance(method, TreeMethod):
         method.tree.correct_one(point, list(wanted), user=USER)
     elif isinstance(method, HoeffdingMethod):
-        x = method._features(point.codes, point.readings)
-        for a, model in enumerate(method.models):
-            model.learn_one(x, method.home.services[a].name in wanted)
+        method.learn_one(point, wanted)
 
 
 def replay(

@@ -53,10 +53,12 @@ from sqlalchemy.orm import DeclarativeBase, Mapped, mapped_column
 from homecog.errors import HomecogError
 from homecog.home.model import Home
 from homecog.knowledge import sample_log
-from homecog.knowledge.ihdr import Cluster, IHDRTree, Numeric
+from homecog.knowledge.ihdr import IHDRTree
+from homecog.knowledge.model import Cluster, Numeric
 from homecog.knowledge.sample_log import SampleLog
 from homecog.knowledge.samples import SampleSet
 from homecog.knowledge.space import Point
+from homecog.knowledge.state import NodeState, TreeState
 from homecog.paths import data_dir
 
 SCHEMA_VERSION = "0001"
@@ -342,26 +344,36 @@ class Store:
             home_row = conn.execute(select(HomeRow).where(HomeRow.id == 1)).first()
             if home_row is None or home_row.built_at is None:
                 raise StoreError(f"--db {redact(self.url)}: no knowledge tree yet; run homecog build")
-            tree = IHDRTree(self.home, mode=home_row.mode)
-            state = json.loads(home_row.state or "{}")
-            nodes = {n.id: n for n in tree.root.iter_dfs()}
-            for row in conn.execute(select(NodeRow)):
-                node = nodes.get(row.id)
-                if node is None or node.name != row.name:
-                    raise StoreError(f"--db {redact(self.url)}: the stored tree does not fit the home")
-                node.count, node.position_sum = row.count, row.position_sum
+            counters = json.loads(home_row.state or "{}")
+            state = TreeState(
+                mode=home_row.mode,
+                nodes=[
+                    NodeState(r.id, r.parent_id, r.name, r.kind, r.service, r.count, r.position_sum)
+                    for r in conn.execute(select(NodeRow).order_by(NodeRow.id))
+                ],
+                shared=[],
+                precedence=counters.get("precedence", []),
+                next_id=counters.get("next_id", 0),
+                seq=counters.get("seq", 0),
+                n_experiences=counters.get("n_experiences", 0),
+            )
+            service_of = {n.id: n.service for n in state.nodes}
             for row in conn.execute(
                 select(ClusterRow).order_by(
                     ClusterRow.user, ClusterRow.node_id, ClusterRow.seq, ClusterRow.id
                 )
             ):
                 cluster = self._cluster(row)
-                node = nodes[row.node_id]
                 if row.user is None:
-                    tree._restore_shared(node, cluster)
+                    state.shared.append((row.node_id, cluster))
                 else:
-                    tree._restore_user(row.user, node.service, cluster)
-            tree._restore_state(state)
+                    state.users.setdefault(row.user, {}).setdefault(service_of[row.node_id], []).append(
+                        cluster
+                    )
+            try:
+                tree = IHDRTree.from_state(self.home, state)
+            except (ValueError, KeyError):
+                raise StoreError(f"--db {redact(self.url)}: the stored tree does not fit the home") from None
             for row in conn.execute(select(UserRow.name, UserRow.version)):
                 self._versions[row.name] = row.version
             return tree
@@ -399,7 +411,7 @@ class Store:
             service_of = {n.id: n.service for n in tree.root.iter_dfs()}
             for row in rows:
                 layer.setdefault(service_of[row.node_id], []).append(self._cluster(row))
-            tree._replace_user(user, layer, version)
+            tree.set_user_layer(user, layer)
             self._versions[user] = version
         return version
 
@@ -416,7 +428,7 @@ class Store:
         """
         corrections = self._corrections()
         for kind, user, payload in corrections:
-            tree._replay(kind, user, payload)
+            tree.replay(kind, user, payload)
         with self._tx() as conn:
             now = datetime.now(UTC).replace(tzinfo=None)
             build_id = (conn.execute(select(func.max(ExperienceRow.id))).scalar_one() or 0) + 1
@@ -433,7 +445,7 @@ class Store:
                         "content_hash": self.home.content_hash,
                         "mode": tree.mode,
                         "built_at": now,
-                        "state": json.dumps(tree._state()),
+                        "state": json.dumps(tree.to_state().counters()),
                     }
                 ],
             )
@@ -639,7 +651,7 @@ class Store:
                 )
         except BaseException:
             self._versions.pop(user, None)  # the tree may hold what did not commit: reload next time
-            tree._replace_user(user, {}, -1)
+            tree.set_user_layer(user, {})
             raise
         self._versions[user] = version + 1
         self._known_users.add(user)
@@ -687,7 +699,7 @@ class Store:
             tree.learn_many(self._samples_from([sample_log.unpack(r.data) for r in parts]))
         for r in rows:
             if r.kind in ("correction", "sample"):
-                tree._replay(r.kind, r.user, json.loads(r.payload))
+                tree.replay(r.kind, r.user, json.loads(r.payload))
         return tree
 
     def _samples_from(self, arrays: list[dict[str, np.ndarray]]) -> SampleSet:

@@ -1,0 +1,259 @@
+"""Cognition in the knowledge tree (SPEC §5; the paper's Algorithm 3): the service nodes whose
+clusters respond to a context, a user's corrections over them, the order of the answer, and why.
+
+:class:`TreeSearch` is the half of :class:`~homecog.knowledge.ihdr.IHDRTree` that answers; the
+other half learns. Three ways find the responding clusters, fastest first: a dense table of the
+responding cluster of every node at every point (small homes, multi mode), a table per group of
+devices (large homes, :mod:`homecog.knowledge.group_index`), and asking every node's clusters.
+They give the same answers (tests check it).
+"""
+
+from __future__ import annotations
+
+import operator
+from collections.abc import Mapping
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from homecog.home.model import format_clock, format_number
+from homecog.knowledge.group_index import LIMIT_BYTES as GROUP_INDEX_BYTES
+from homecog.knowledge.group_index import GroupIndex
+from homecog.knowledge.model import Cluster, Cognition, Condition, Explanation, Node, Numeric
+from homecog.knowledge.space import Point
+
+if TYPE_CHECKING:
+    from homecog.home.model import Home
+    from homecog.knowledge.box_index import BoxIndex
+    from homecog.knowledge.corrections import UserLayers
+    from homecog.knowledge.space import Space
+
+
+class TreeSearch:
+    """Algorithm 3 and the explanations, over the attributes an IHDRTree has."""
+
+    home: Home
+    mode: str
+    root: Node
+    _space: Space
+    _services: list[Node]
+    _idle: Node
+    _index: dict[int, BoxIndex]
+    _layers: UserLayers
+    _precedence: np.ndarray
+    _dense: np.ndarray | None
+    _gindex: GroupIndex | bool | None
+    _before: list[set[int]] | None
+    _label_table: list[list[str]] | None
+    _described: dict[tuple[Any, ...], dict[str, str]]
+    _strides: tuple[int, ...]
+    _dense_ok: bool
+
+    def point(self, x: Mapping[str, object] | Point) -> Point:
+        raise NotImplementedError
+
+    def _all_services(self) -> list[Node]:
+        raise NotImplementedError
+
+    def _dense_table(self) -> np.ndarray:
+        """The responding cluster of every service node at every discrete point (on demand)."""
+        if self._dense is None:
+            sizes = [len(d.values) for d in self._space.dims]
+            nodes = self._all_services()
+            table = np.full([*sizes, len(nodes)], -1, dtype=np.int16)
+            for node in nodes:
+                # the first cluster (lowest id) wins where boxes overlap, as in the lookup
+                for i in sorted(range(len(node.clusters)), key=lambda i: -node.clusters[i].id):
+                    cluster = node.clusters[i]
+                    axes = [
+                        np.array(sorted(cluster.conditions[j]), dtype=np.intp)  # type: ignore[arg-type]
+                        if j in cluster.conditions
+                        else np.arange(size)
+                        for j, size in enumerate(sizes)
+                    ]
+                    table[(*np.ix_(*axes), node.service)] = i
+            self._dense = table.reshape(-1, len(nodes))
+        return self._dense
+
+    def _shared_match(self, node: Node, p: Point) -> Cluster | None:
+        if self.mode == "multi":
+            return self._index[node.id].lookup(p.codes)
+        for cluster in node.clusters:
+            if cluster.matches(p):
+                return cluster
+        return None
+
+    def _search(self, p: Point, user: str | None) -> tuple[list[tuple[Node, Cluster]], bool]:
+        """Algorithm 3: the service nodes whose clusters respond, and whether Idle responded."""
+        hits: list[tuple[Node, Cluster]] = []
+        idle = False
+        if self._dense_ok:
+            row = self._dense_table()[sum(map(operator.mul, p.codes, self._strides))].tolist()
+            layer = self._layers.layer(user) if user is not None else {}
+            for node, i in zip(self._all_services(), row, strict=True):
+                user_hit = self._layers.match(user, node.service, p) if node.service in layer else None
+                if user_hit is not None:
+                    if user_hit.polarity > 0:
+                        hits.append((node, user_hit))
+                elif i >= 0:
+                    if node is self._idle:
+                        idle = True
+                    else:
+                        hits.append((node, node.clusters[i]))
+            return self._ordered(hits), idle
+        index = self._group_index() if self.mode == "multi" else None
+        if index is not None:
+            hits = self._group_hits(index, p, user)
+            return self._ordered(hits), False if hits else self._idle_responds(p)
+        for category in self.root.children:
+            # a category is searched when its cluster responds (paper); in multi mode a
+            # category keeps no cluster of its own and every category is searched
+            if self.mode == "paper" and category.clusters and not category.clusters[0].matches(p):
+                continue
+            for node in category.children:
+                if node is self._idle:
+                    continue  # asked only when no service answers
+                user_hit = self._layers.match(user, node.service, p) if user is not None else None
+                cluster = user_hit if user_hit is not None else self._shared_match(node, p)
+                if cluster is None or cluster.polarity < 0:
+                    continue
+                hits.append((node, cluster))
+        return self._ordered(hits), False if hits else self._idle_responds(p)
+
+    def _idle_responds(self, p: Point) -> bool:
+        """Whether "nothing to do" answers a context (its category's cluster too, in paper mode)."""
+        category = self._idle.parent
+        assert category is not None
+        if self.mode == "paper" and category.clusters and not category.clusters[0].matches(p):
+            return False
+        return self._shared_match(self._idle, p) is not None
+
+    def _group_index(self) -> GroupIndex | None:
+        """The group tables of a large multi tree (built on first use), or None where they do not
+        fit (:mod:`homecog.knowledge.group_index`)."""
+        if self._gindex is None:
+            fits = GroupIndex.size(self.home) <= GROUP_INDEX_BYTES
+            self._gindex = GroupIndex(self.home, self._services) if fits else False
+        return self._gindex or None
+
+    def _group_hits(self, index: GroupIndex, p: Point, user: str | None) -> list[tuple[Node, Cluster]]:
+        services, found = index.responding(p.codes)
+        chosen: dict[int, Cluster] = {}
+        for a, i in zip(services.tolist(), found.tolist(), strict=True):
+            chosen[a] = self._services[a].clusters[i]
+        for a in index.outside:
+            cluster = self._shared_match(self._services[a], p)
+            if cluster is not None:
+                chosen[a] = cluster
+        if user is not None:
+            for a in self._layers.layer(user):
+                user_hit = self._layers.match(user, a, p)
+                if user_hit is not None:
+                    if user_hit.polarity > 0:
+                        chosen[a] = user_hit
+                    else:
+                        chosen.pop(a, None)
+        return [(self._services[a], c) for a, c in sorted(chosen.items())]
+
+    def _ordered(self, hits: list[tuple[Node, Cluster]]) -> list[tuple[Node, Cluster]]:
+        """By priority (mean position), except that a service the learned sequences always put
+        before another (it clears the way: close the window, then cool) goes first."""
+        if len(hits) < 2:
+            return hits
+        multi = self.mode == "multi"
+        rest = sorted(
+            hits, key=lambda h: ((h[1].priority if multi and h[1].count else h[0].priority), h[0].service)
+        )
+        if self._before is None:
+            prec = self._precedence
+            # b must precede a when it came first in (nearly) every sequence with both
+            must = (prec.T > 0) & (prec * 100 <= prec.T)
+            self._before = [set(np.flatnonzero(must[a]).tolist()) for a in range(len(prec))]
+        before = self._before
+        present = {node.service for node, _ in rest}
+        if not any(before[a] & present for a in present):
+            return rest
+        out = []
+        while rest:
+            for i, (node, _) in enumerate(rest):
+                need = before[node.service]
+                blocked = bool(need) and any(o.service in need for o, _ in rest if o is not node)
+                if not blocked:
+                    out.append(rest.pop(i))
+                    break
+            else:  # contradictory experience: keep the priority order
+                out.extend(rest)
+                break
+        return out
+
+    def _priority(self, node: Node, cluster: Cluster) -> float:
+        return cluster.priority if self.mode == "multi" and cluster.count else node.priority
+
+    def explain_one(self, x: Mapping[str, object] | Point, user: str | None = None) -> Cognition:
+        """Services for a context, ordered by priority, with why (Algorithm 3)."""
+        hits, idle = self._search(self.point(x), user)
+        explanations = [
+            Explanation(
+                service=node.name,
+                category=node.parent.name if node.parent else "",
+                priority=round(self._priority(node, cluster), 3),
+                cluster=cluster.id,
+                user=cluster.user,
+                conditions=self.describe(cluster),
+            )
+            for node, cluster in hits
+        ]
+        return Cognition(
+            services=[e.service for e in explanations],
+            unknown=not hits and not idle,
+            explanations=explanations,
+        )
+
+    def predict_one(self, x: Mapping[str, object] | Point, user: str | None = None) -> list[str]:
+        """The services the user needs in context ``x``, in priority order."""
+        return [node.name for node, _ in self._search(self.point(x), user)[0]]
+
+    def describe(self, cluster: Cluster) -> dict[str, str]:
+        """A cluster's conditions as text, per related dimension.
+
+        Conditions on codes alone (frozensets, which never change) are described once and
+        remembered: explanations are on the path of every ``POST /api/cognize``.
+        """
+        items = sorted(cluster.conditions.items())
+        key = tuple(items)
+        try:
+            return dict(self._described[key])
+        except TypeError:  # a numeric condition: its mean moves with what it learns
+            pass
+        except KeyError:
+            if len(self._described) >= 100_000:
+                self._described.clear()
+            self._described[key] = self._describe(items)
+            return dict(self._described[key])
+        return self._describe(items)
+
+    def _describe(self, items: list[tuple[int, Condition]]) -> dict[str, str]:
+        labels = self._labels()
+        out = {}
+        for j, cond in items:
+            dim = self._space.dims[j]
+            if isinstance(cond, Numeric):
+                fmt = format_clock if dim.kind == "clock" else (lambda v: format_number(round(v, 2)))
+                out[dim.name] = f"{fmt(cond.mean)} ± {format_number(round(cond.range, 2))}"
+            else:
+                out[dim.name] = ", ".join([labels[j][k] for k in sorted(cond)])
+        return out
+
+    def _labels(self) -> list[list[str]]:
+        """Per dimension, each code's text in explanations ("high (≥ 28 °C)", "on"); made once,
+        since explanations are on the path of every ``POST /api/cognize``."""
+        if self._label_table is None:
+            table = []
+            for j, dim in enumerate(self._space.dims):
+                if dim.numeric:
+                    feature = self.home.features[j]
+                    table.append([f"{v} {feature.describe_bin(k)}" for k, v in enumerate(feature.values)])
+                else:
+                    table.append(list(dim.values))
+            self._label_table = table
+        return self._label_table

@@ -1,0 +1,152 @@
+"""How one sample row changes the clusters of a service node (SPEC §5; the paper's Algorithm 2).
+
+``paper`` mode: one cluster per node, updated exactly as Algorithm 2 (a sample that marks a
+dimension unrelated makes it unrelated for good; values collect; readings update mean and
+range). ``multi`` mode: the node keeps boxes; a row joins a box that covers it, or merges with a
+box one dimension away (their union is a box), or starts a box.
+
+:class:`ClusterUpdates` is the half of :class:`~homecog.knowledge.ihdr.IHDRTree` that changes
+clusters; ``learn_one`` and ``learn_many`` there decide which rows to learn.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+from homecog.knowledge.model import Cluster, Condition, Node, Numeric, bits, box_size
+
+if TYPE_CHECKING:
+    from homecog.knowledge.box_index import BoxIndex
+    from homecog.knowledge.space import Space
+
+
+class ClusterUpdates:
+    """Algorithm 2 and the boxes, over the attributes an IHDRTree has."""
+
+    mode: str
+    _space: Space
+    _index: dict[int, BoxIndex]
+    _next_id: int
+    _seq: int
+
+    def _all_services(self) -> list[Node]:
+        raise NotImplementedError
+
+    def _new_cluster(self, conditions: dict[int, Condition], **kw: Any) -> Cluster:
+        raise NotImplementedError
+
+    def _changed(self) -> None:
+        raise NotImplementedError
+
+    def _learn_row(
+        self,
+        a: int,
+        mask: int,
+        codes: tuple[int, ...],
+        readings: tuple[float | None, ...],
+        n: int,
+        pos_sum: float,
+        stats: dict[int, tuple[float, float, float]] | None,
+    ) -> None:
+        node = self._all_services()[a]
+        for target in (node, node.parent):
+            assert target is not None
+            target.count += n
+            target.position_sum += pos_sum
+        if self.mode == "paper":
+            for target in (node, node.parent):
+                self._algorithm2(target, mask, codes, readings, n, stats)  # type: ignore[arg-type]
+        else:
+            self._merge_box(node, mask, codes, readings, n, pos_sum)
+
+    def _algorithm2(
+        self,
+        node: Node,
+        mask: int,
+        codes: tuple[int, ...],
+        readings: tuple[float | None, ...],
+        n: int,
+        stats: dict[int, tuple[float, float, float]] | None,
+    ) -> None:
+        """Algorithm 2, step 3: update the node's one cluster with a sample row."""
+        dims = self._space.dims
+        if not node.clusters:  # step 1: the first sample makes the cluster
+            conditions: dict[int, Condition] = {}
+            for j in range(len(dims)):
+                if mask >> j & 1:
+                    conditions[j] = (
+                        self._numeric(j, codes, readings, n, stats)
+                        if dims[j].numeric
+                        else frozenset([codes[j]])
+                    )
+            node.clusters.append(self._new_cluster(conditions))
+        else:
+            cluster = node.clusters[0]
+            for j in list(cluster.conditions):
+                cond = cluster.conditions[j]
+                if not mask >> j & 1:  # step 3.3: unrelated in this sample: unrelated for good
+                    del cluster.conditions[j]
+                elif isinstance(cond, Numeric):  # step 3.4
+                    if stats is not None and j in stats:
+                        total, low, high = stats[j]
+                        cond.add(float(readings[j] or 0.0), n, total, low, high)
+                    else:
+                        cond.add(float(readings[j]))  # type: ignore[arg-type]
+                else:  # step 3.5
+                    cluster.conditions[j] = cond | {codes[j]}
+        node.clusters[0].count += n
+
+    @staticmethod
+    def _numeric(
+        j: int,
+        codes: tuple[int, ...],
+        readings: tuple[float | None, ...],
+        n: int,
+        stats: dict[int, tuple[float, float, float]] | None,
+    ) -> Numeric:
+        if stats is not None and j in stats:
+            total, low, high = stats[j]
+            return Numeric(count=n, total=float(total), low=float(low), high=float(high))
+        x = float(readings[j])  # type: ignore[arg-type]
+        return Numeric(count=1, total=x, low=x, high=x)
+
+    def _merge_box(
+        self,
+        node: Node,
+        mask: int,
+        codes: tuple[int, ...],
+        readings: tuple[float | None, ...],
+        n: int,
+        pos_sum: float,
+    ) -> None:
+        """Multi mode: join a covering box, merge with a box one dimension away, or start one."""
+        index = self._index[node.id]
+        dims = bits(mask)
+        key = tuple(codes[j] for j in dims)
+        hit = index.covering(mask, key)
+        if hit is not None:
+            hit.count += n
+            hit.position_sum += pos_sum
+            return
+        box = self._new_cluster({j: frozenset([codes[j]]) for j in dims}, count=n, position_sum=pos_sum)
+        index.point_to(box, box.conditions, mask)
+        while True:
+            keys = index.partner_keys(box, mask)
+            partner = index.partner(box, keys)
+            if partner is None:
+                break
+            index.unlink(partner)
+            node.clusters.remove(partner)
+            merged = {j: box.conditions[j] | partner.conditions[j] for j in box.conditions}  # type: ignore[operator]
+            # the union takes the partner's identity; of the two objects, the one with more
+            # points keeps them, and only the other's points are pointed at it
+            keep, other = (partner, box) if box_size(partner) >= box_size(box) else (box, partner)
+            index.point_to(keep, other.conditions, mask)
+            keep.id, keep.seq = partner.id, partner.seq
+            keep.conditions = merged
+            keep.count = box.count + partner.count
+            keep.position_sum = box.position_sum + partner.position_sum
+            box = keep
+        node.clusters.append(box)
+        index.link(box, keys)
+        self._changed()
