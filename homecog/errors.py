@@ -39,3 +39,8 @@ class PlanningError(HomecogError):
 class HomeAssistantError(HomecogError):
     """A Home Assistant instance that cannot be used: a bad URL, one that cannot be reached, a
     refused token, entities it does not have, or a recorder database of a schema we cannot read."""
+
+
+class StoreError(HomecogError):
+    """A knowledge database that cannot be used: a bad URL, a server that cannot be reached, a
+    database made for another home, or a log that does not fit."""

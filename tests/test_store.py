@@ -26,11 +26,12 @@ from servers import (
 )
 from sqlalchemy import func, select
 
-from homecog.errors import ContextError
+from homecog.errors import ContextError, StoreError
 from homecog.home import Home
 from homecog.knowledge.ihdr import IHDRTree
 from homecog.knowledge.pipeline import build
-from homecog.knowledge.store import ExperienceRow, Store, StoreError, UserRow
+from homecog.knowledge.schema import ExperienceRow, UserRow
+from homecog.knowledge.store import Store
 
 WORK = {"time": "10:00", "light": 100, "activity": "work", "blind": "off", "desk_lamp": "off", "radio": "off"}
 EVENING = {

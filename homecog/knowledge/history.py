@@ -21,7 +21,10 @@ from datetime import UTC
 from sqlalchemy import func, select
 from sqlalchemy.exc import SQLAlchemyError
 
-from homecog.knowledge.store import ExperienceRow, Store, StoreError, redact
+from homecog.errors import StoreError
+from homecog.knowledge.database import redact
+from homecog.knowledge.schema import ExperienceRow
+from homecog.knowledge.store import Store
 
 
 @dataclass(frozen=True)

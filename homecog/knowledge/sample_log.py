@@ -52,6 +52,9 @@ class SampleLog:
     parts: list[tuple[dict[str, Any], bytes]] = field(default_factory=list)
     count: int = 0
 
+    def __len__(self) -> int:
+        return self.count
+
     def add(self, samples: SampleSet, group: int) -> None:
         """Log the samples of one group (or, joint, of the home)."""
         masks, index = np.unique(samples.masks, return_inverse=True)

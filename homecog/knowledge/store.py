@@ -16,7 +16,6 @@ The learner never touches SQL: this module maps the tree to rows and back.
 from __future__ import annotations
 
 import json
-import os
 import random
 import time
 from collections.abc import Iterator
@@ -25,219 +24,40 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-from sqlalchemy import (
-    BigInteger,
-    DateTime,
-    Double,
-    ForeignKey,
-    Index,
-    Integer,
-    LargeBinary,
-    String,
-    Text,
-    create_engine,
-    delete,
-    event,
-    func,
-    insert,
-    select,
-    text,
-    update,
-)
-from sqlalchemy.dialects import mysql
-from sqlalchemy.engine import Connection, Engine, make_url
-from sqlalchemy.exc import ArgumentError, DBAPIError, NoSuchModuleError, OperationalError, SQLAlchemyError
-from sqlalchemy.orm import DeclarativeBase, Mapped, mapped_column
+from sqlalchemy import delete, func, insert, select, text, update
+from sqlalchemy.engine import Connection
+from sqlalchemy.exc import DBAPIError, OperationalError, SQLAlchemyError
 
-from homecog.errors import HomecogError
+from homecog.errors import StoreError
 from homecog.home.model import Home
 from homecog.knowledge import sample_log
+from homecog.knowledge.database import (
+    ConflictError,
+    db_message,
+    default_url,
+    is_conflict,
+    make_engine,
+    redact,
+)
 from homecog.knowledge.ihdr import IHDRTree
-from homecog.knowledge.model import Cluster, Numeric
+from homecog.knowledge.model import Cluster
+from homecog.knowledge.rows import (
+    cluster_from_row,
+    cluster_rows,
+    log_rows,
+    node_rows,
+    sample_rows,
+    samples_from,
+)
 from homecog.knowledge.sample_log import SampleLog
 from homecog.knowledge.samples import SampleSet
+from homecog.knowledge.schema import Base, ClusterRow, ExperienceRow, HomeRow, NodeRow, UserRow
 from homecog.knowledge.space import Point
 from homecog.knowledge.state import NodeState, TreeState
-from homecog.paths import data_dir
 
-SCHEMA_VERSION = "0001"
-_LongBlob = LargeBinary().with_variant(mysql.LONGBLOB(), "mysql", "mariadb")
-_LongText = Text().with_variant(mysql.LONGTEXT(), "mysql", "mariadb")
+__all__ = ["Store", "StoreError", "default_url", "redact"]
 SAMPLES_PER_ROW = 32768
 CONFLICT_RETRIES = 50  # attempts of a correction that the server aborts for a deadlock
-CONNECT_TIMEOUT = 10  # seconds to wait for a database server (unless the URL says connect_timeout)
-
-
-class StoreError(HomecogError):
-    """A database that cannot be reached, or that holds knowledge of another home."""
-
-
-class _ConflictError(StoreError):
-    """A transaction the server aborted for a deadlock or a serialization failure: retry it."""
-
-
-def _is_conflict(e: DBAPIError) -> bool:
-    orig = e.orig
-    code = orig.args[0] if orig is not None and orig.args else None
-    # MySQL/MariaDB 1213: deadlock; PostgreSQL 40P01: deadlock, 40001: serialization failure
-    return code == 1213 or getattr(orig, "sqlstate", None) in ("40P01", "40001")
-
-
-class Base(DeclarativeBase):
-    pass
-
-
-class HomeRow(Base):
-    """The home this database is made for (one per database)."""
-
-    __tablename__ = "homes"
-    id: Mapped[int] = mapped_column(Integer, primary_key=True)
-    name: Mapped[str] = mapped_column(String(200))
-    content_hash: Mapped[str] = mapped_column(String(64))
-    mode: Mapped[str] = mapped_column(String(16))
-    built_at: Mapped[datetime | None] = mapped_column(DateTime, nullable=True)
-    state: Mapped[str | None] = mapped_column(_LongText, nullable=True)  # JSON: precedence, counters
-
-
-class NodeRow(Base):
-    """A node of the tree: root, category or service, with its parent."""
-
-    __tablename__ = "nodes"
-    id: Mapped[int] = mapped_column(Integer, primary_key=True, autoincrement=False)
-    parent_id: Mapped[int | None] = mapped_column(ForeignKey("nodes.id"), nullable=True)
-    name: Mapped[str] = mapped_column(String(200))
-    kind: Mapped[str] = mapped_column(String(16))
-    service: Mapped[int] = mapped_column(Integer)
-    count: Mapped[int] = mapped_column(BigInteger)
-    position_sum: Mapped[float] = mapped_column(Double)
-
-
-class ClusterRow(Base):
-    """A cluster of a node; ``user`` is NULL for the shared tree, else the user's layer."""
-
-    __tablename__ = "clusters"
-    id: Mapped[int] = mapped_column(Integer, primary_key=True)
-    node_id: Mapped[int] = mapped_column(ForeignKey("nodes.id"), index=True)
-    user: Mapped[str | None] = mapped_column(String(200), nullable=True, index=True)
-    tree_id: Mapped[int] = mapped_column(BigInteger)
-    polarity: Mapped[int] = mapped_column(Integer)
-    conditions: Mapped[str] = mapped_column(_LongText)
-    count: Mapped[int] = mapped_column(BigInteger)
-    position_sum: Mapped[float] = mapped_column(Double)
-    seq: Mapped[int] = mapped_column(BigInteger)
-    seed: Mapped[str | None] = mapped_column(Text, nullable=True)
-
-
-class UserRow(Base):
-    """A household member: the lock their corrections take, and a version for caches."""
-
-    __tablename__ = "users"
-    name: Mapped[str] = mapped_column(String(200), primary_key=True)
-    version: Mapped[int] = mapped_column(BigInteger, default=0)
-    corrections: Mapped[int] = mapped_column(BigInteger, default=0)
-
-
-class ExperienceRow(Base):
-    """The append-only experience log: sample batches, single samples and corrections."""
-
-    __tablename__ = "experiences"
-    __table_args__ = (Index("ix_experiences_kind_user_id", "kind", "user", "id"),)  # the history
-    id: Mapped[int] = mapped_column(Integer, primary_key=True, autoincrement=True)
-    kind: Mapped[str] = mapped_column(String(16))
-    user: Mapped[str | None] = mapped_column(String(200), nullable=True)
-    created_at: Mapped[datetime] = mapped_column(DateTime)
-    payload: Mapped[str | None] = mapped_column(_LongText, nullable=True)
-    data: Mapped[bytes | None] = mapped_column(_LongBlob, nullable=True)
-
-
-# -- urls and engines ---------------------------------------------------------------------------
-def default_url(home: Home) -> str:
-    """``$HOMECOG_DB`` or a SQLite file under the data directory, one per home."""
-    env = os.environ.get("HOMECOG_DB")
-    if env:
-        return env
-    path = data_dir() / "knowledge" / f"{home.name}-{home.content_hash[:16]}.sqlite"
-    return f"sqlite:///{path}"
-
-
-def redact(url: str) -> str:
-    """A URL without its password, for messages."""
-    from sqlalchemy.engine import make_url
-
-    try:
-        return make_url(url).render_as_string(hide_password=True)
-    except ArgumentError:
-        return url
-
-
-def make_engine(url: str) -> Engine:
-    """An engine for a URL; SQLite gets WAL, a busy timeout and immediate write transactions."""
-    try:
-        if url.startswith("sqlite"):
-            path = url.split("///", 1)[1] if "///" in url else ""
-            if path and path != ":memory:":
-                Path(path).parent.mkdir(parents=True, exist_ok=True)
-            engine = create_engine(url, connect_args={"timeout": 60})
-
-            @event.listens_for(engine, "connect")
-            def _connect(dbapi_connection: Any, _: Any) -> None:
-                dbapi_connection.isolation_level = None  # we issue BEGIN ourselves
-                cursor = dbapi_connection.cursor()
-                cursor.execute("PRAGMA journal_mode=WAL")
-                # WAL with synchronous=NORMAL: a commit survives a crash of the program (the
-                # SIGKILL test), only a power cut may lose the last ones; the file never corrupts
-                cursor.execute("PRAGMA synchronous=NORMAL")
-                cursor.execute("PRAGMA foreign_keys=ON")
-                cursor.close()
-
-            @event.listens_for(engine, "begin")
-            def _begin(conn: Connection) -> None:
-                conn.exec_driver_sql("BEGIN IMMEDIATE")
-
-            return engine
-        # a server that drops packets must not hang a command: libpq waits forever by default
-        parsed = make_url(url)
-        connect_args: dict[str, Any] = {}
-        if (
-            parsed.get_backend_name() in ("postgresql", "mysql", "mariadb")
-            and "connect_timeout" not in parsed.query
-        ):
-            connect_args["connect_timeout"] = CONNECT_TIMEOUT
-        return create_engine(url, pool_pre_ping=True, connect_args=connect_args)
-    except (ArgumentError, NoSuchModuleError, ValueError) as e:
-        raise StoreError(f"--db {redact(url)}: not a database URL ({e})") from None
-    except ImportError as e:
-        raise StoreError(f"--db {redact(url)}: driver missing ({e.name}); install it with pip") from None
-    except OSError as e:
-        raise StoreError(f"--db {redact(url)}: {e.strerror}") from None
-
-
-def _db_message(url: str, e: BaseException) -> str:
-    orig = getattr(e, "orig", None) or e
-    text_ = str(orig).strip().splitlines()[0] if str(orig).strip() else type(orig).__name__
-    return f"--db {redact(url)}: cannot use the database: {text_}"
-
-
-# -- encoding the tree -------------------------------------------------------------------------
-def _encode_conditions(conditions: dict[int, Any]) -> str:
-    out = {}
-    for j, cond in sorted(conditions.items()):
-        if isinstance(cond, Numeric):
-            out[str(j)] = {"n": cond.count, "sum": cond.total, "low": cond.low, "high": cond.high}
-        else:
-            out[str(j)] = sorted(cond)
-    return json.dumps(out, separators=(",", ":"))
-
-
-def _decode_conditions(text_: str) -> dict[int, Any]:
-    out: dict[int, Any] = {}
-    for j, cond in json.loads(text_).items():
-        if isinstance(cond, dict):
-            out[int(j)] = Numeric(count=cond["n"], total=cond["sum"], low=cond["low"], high=cond["high"])
-        else:
-            out[int(j)] = frozenset(cond)
-    return out
 
 
 class Store:
@@ -263,7 +83,7 @@ class Store:
             raise
         except (SQLAlchemyError, DBAPIError, OSError) as e:
             self.engine.dispose()
-            raise StoreError(_db_message(self.url, e)) from None
+            raise StoreError(db_message(self.url, e)) from None
 
     # -- schema ---------------------------------------------------------------------------------
     def _migrate(self) -> None:
@@ -296,9 +116,9 @@ class Store:
         except StoreError:
             raise
         except (OperationalError, DBAPIError) as e:
-            if _is_conflict(e):
-                raise _ConflictError(_db_message(self.url, e)) from None
-            raise StoreError(_db_message(self.url, e)) from None
+            if is_conflict(e):
+                raise ConflictError(db_message(self.url, e)) from None
+            raise StoreError(db_message(self.url, e)) from None
 
     def close(self) -> None:
         self.engine.dispose()
@@ -335,8 +155,23 @@ class Store:
     def experience_count(self) -> int:
         """Experiences in the log: every sample of every build, every single sample and correction."""
         with self._tx() as conn:
-            rows = conn.execute(select(ExperienceRow.kind, ExperienceRow.payload))
-            return sum(json.loads(p).get("count", 0) if k == "samples" else 1 for k, p in rows)
+            # single samples and corrections: one indexed count; every build's samples: the
+            # total the last build wrote beside the tree
+            others = conn.execute(
+                select(func.count()).select_from(ExperienceRow).where(ExperienceRow.kind != "samples")
+            ).scalar_one()
+            return others + self._samples_logged(conn)
+
+    @staticmethod
+    def _samples_logged(conn: Connection) -> int:
+        """Samples in the log, of every build (read from the sample batches in databases older
+        than that count)."""
+        state = conn.execute(select(HomeRow.state).where(HomeRow.id == 1)).scalar_one_or_none()
+        counters = json.loads(state or "{}")
+        if "samples_logged" in counters:
+            return int(counters["samples_logged"])
+        batches = conn.execute(select(ExperienceRow.payload).where(ExperienceRow.kind == "samples"))
+        return sum(json.loads(p).get("count", 0) for (p,) in batches)
 
     def load_tree(self) -> IHDRTree:
         """The tree as stored: shared nodes and clusters, and every user's layer."""
@@ -363,7 +198,7 @@ class Store:
                     ClusterRow.user, ClusterRow.node_id, ClusterRow.seq, ClusterRow.id
                 )
             ):
-                cluster = self._cluster(row)
+                cluster = cluster_from_row(row)
                 if row.user is None:
                     state.shared.append((row.node_id, cluster))
                 else:
@@ -377,19 +212,6 @@ class Store:
             for row in conn.execute(select(UserRow.name, UserRow.version)):
                 self._versions[row.name] = row.version
             return tree
-
-    @staticmethod
-    def _cluster(row: Any) -> Cluster:
-        return Cluster(
-            id=row.tree_id,
-            conditions=_decode_conditions(row.conditions),
-            count=row.count,
-            position_sum=row.position_sum,
-            user=row.user,
-            polarity=row.polarity,
-            seed=None if row.seed is None else tuple(json.loads(row.seed)),
-            seq=row.seq,
-        )
 
     def refresh_user(self, tree: IHDRTree, user: str) -> None:
         """Reload a user's layer when another process has corrected since it was read."""
@@ -410,7 +232,7 @@ class Store:
             )
             service_of = {n.id: n.service for n in tree.root.iter_dfs()}
             for row in rows:
-                layer.setdefault(service_of[row.node_id], []).append(self._cluster(row))
+                layer.setdefault(service_of[row.node_id], []).append(cluster_from_row(row))
             tree.set_user_layer(user, layer)
             self._versions[user] = version
         return version
@@ -432,146 +254,51 @@ class Store:
         with self._tx() as conn:
             now = datetime.now(UTC).replace(tzinfo=None)
             build_id = (conn.execute(select(func.max(ExperienceRow.id))).scalar_one() or 0) + 1
+            logged = self._samples_logged(conn) + len(samples)
             conn.execute(delete(ClusterRow))
             conn.execute(update(NodeRow).values(parent_id=None))
             conn.execute(delete(NodeRow))
             conn.execute(delete(HomeRow))
-            conn.execute(
-                insert(HomeRow),
-                [
-                    {
-                        "id": 1,
-                        "name": self.home.name,
-                        "content_hash": self.home.content_hash,
-                        "mode": tree.mode,
-                        "built_at": now,
-                        "state": json.dumps(tree.to_state().counters()),
-                    }
-                ],
-            )
-            self._write_nodes(conn, tree)
+            state = tree.to_state()
+            counters = {**state.counters(), "samples_logged": logged}
+            home_row = {
+                "id": 1,
+                "name": self.home.name,
+                "content_hash": self.home.content_hash,
+                "mode": tree.mode,
+                "built_at": now,
+                "state": json.dumps(counters),
+            }
+            conn.execute(insert(HomeRow), [home_row])
+            conn.execute(insert(NodeRow), node_rows(state))
             self._write_clusters(conn, tree, None)
             for user in tree.users:
                 self._write_clusters(conn, tree, user)
             if isinstance(samples, SampleLog):
-                rows = self._log_rows(samples, build_id, tree.mode, seconds, now)
+                rows = log_rows(samples, build_id, tree.mode, seconds, now)
             else:
-                rows = self._sample_rows(samples, build_id, tree.mode, seconds, now)
+                rows = sample_rows(samples, build_id, tree.mode, seconds, now)
             conn.execute(insert(ExperienceRow), rows)
             for user in tree.users:
                 self._ensure_user(conn, user)
                 conn.execute(update(UserRow).where(UserRow.name == user).values(version=UserRow.version + 1))
         self._versions = {}
 
-    @staticmethod
-    def _log_rows(
-        log: SampleLog, build_id: int, mode: str, seconds: float | None, now: datetime
-    ) -> list[dict[str, Any]]:
-        return [
-            {
-                "kind": "samples",
-                "user": None,
-                "created_at": now,
-                "payload": json.dumps(
-                    {
-                        **payload,
-                        "build": build_id,
-                        "part": i,
-                        "parts": len(log.parts),
-                        "mode": mode,
-                        "seconds": seconds,
-                    }
-                ),
-                "data": blob,
-            }
-            for i, (payload, blob) in enumerate(log.parts)
-        ]
-
-    @staticmethod
-    def _sample_rows(
-        samples: SampleSet, build_id: int, mode: str, seconds: float | None, now: datetime
-    ) -> list[dict[str, Any]]:
-        parts = max(1, -(-len(samples) // SAMPLES_PER_ROW))
-        numeric = [j for j, d in enumerate(samples.space.dims) if d.numeric]
-        rows = []
-        for part in range(parts):
-            chunk = slice(part * SAMPLES_PER_ROW, (part + 1) * SAMPLES_PER_ROW)
-            rows.append(
-                {
-                    "kind": "samples",
-                    "user": None,
-                    "created_at": now,
-                    "payload": json.dumps(
-                        {
-                            "build": build_id,
-                            "part": part,
-                            "parts": parts,
-                            "mode": mode,
-                            "seconds": seconds,
-                            "count": len(samples.codes[chunk]),
-                        }
-                    ),
-                    "data": sample_log.pack(
-                        {
-                            "codes": samples.codes[chunk],
-                            "readings": samples.readings[chunk][:, numeric],
-                            "numeric": np.array(numeric, dtype=np.int64),
-                            "positions": samples.positions[chunk],
-                            "masks": samples.masks[chunk],
-                        }
-                    ),
-                }
-            )
-        return rows
-
-    def _write_nodes(self, conn: Connection, tree: IHDRTree) -> None:
-        conn.execute(
-            insert(NodeRow),
-            [
-                {
-                    "id": n.id,
-                    "parent_id": n.parent.id if n.parent else None,
-                    "name": n.name,
-                    "kind": n.kind,
-                    "service": n.service,
-                    "count": n.count,
-                    "position_sum": n.position_sum,
-                }
-                for n in tree.root.iter_dfs()
-            ],
-        )
-
     def _write_clusters(
         self, conn: Connection, tree: IHDRTree, user: str | None, services: set[int] | None = None
     ) -> None:
+        """Insert the shared clusters (``user`` None), or a user's clusters of ``services``."""
         if user is None:
-            pairs = list(tree.shared_clusters())
+            pairs = [(node.id, c) for node, c in tree.shared_clusters()]
         else:
-            nodes = {n.service: n for n in tree.root.iter_dfs() if n.kind == "service"}
             pairs = [
-                (nodes[a], c)
+                (tree.service_node(a).id, c)
                 for a, cs in sorted(tree.user_clusters(user).items())
                 if services is None or a in services
                 for c in cs
             ]
         if pairs:
-            conn.execute(
-                insert(ClusterRow),
-                [
-                    {
-                        "node_id": node.id,
-                        "user": user,
-                        "tree_id": c.id,
-                        "polarity": c.polarity,
-                        "conditions": _encode_conditions(c.conditions),
-                        "count": c.count,
-                        "position_sum": c.position_sum,
-                        "seq": c.seq,
-                        "seed": None if c.seed is None else json.dumps(list(c.seed)),
-                    }
-                    for node, c in pairs
-                ],
-            )
+            conn.execute(insert(ClusterRow), cluster_rows(pairs, user))
 
     def _ensure_user(self, conn: Connection, user: str) -> None:
         dialect = conn.dialect.name
@@ -598,7 +325,7 @@ class Store:
         for attempt in range(CONFLICT_RETRIES):
             try:
                 return self._correct_once(tree, point, want, user)
-            except _ConflictError:
+            except ConflictError:
                 if attempt == CONFLICT_RETRIES - 1:
                     raise
                 time.sleep(random.uniform(0, 0.01 * (attempt + 1)))
@@ -696,27 +423,11 @@ class Store:
             except ValueError as e:
                 raise StoreError(f"--db {redact(self.url)}: {e}") from None
         else:
-            tree.learn_many(self._samples_from([sample_log.unpack(r.data) for r in parts]))
+            tree.learn_many(samples_from(self.home, [sample_log.unpack(r.data) for r in parts]))
         for r in rows:
             if r.kind in ("correction", "sample"):
                 tree.replay(r.kind, r.user, json.loads(r.payload))
         return tree
-
-    def _samples_from(self, arrays: list[dict[str, np.ndarray]]) -> SampleSet:
-        from homecog.knowledge.space import Space
-
-        space = Space(self.home)
-        codes = np.concatenate([a["codes"] for a in arrays])
-        readings = np.full((len(codes), len(space.dims)), np.nan)
-        numeric = arrays[0]["numeric"]
-        readings[:, numeric] = np.concatenate([a["readings"] for a in arrays])
-        return SampleSet(
-            space=space,
-            codes=codes,
-            readings=readings,
-            positions=np.concatenate([a["positions"] for a in arrays]),
-            masks=np.concatenate([a["masks"] for a in arrays]),
-        )
 
     def drop_all(self) -> None:
         """Remove every table (tests use it to leave a server database clean)."""

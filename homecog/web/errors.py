@@ -20,9 +20,8 @@ from fastapi.exceptions import RequestValidationError
 from fastapi.responses import JSONResponse
 from starlette.exceptions import HTTPException as StarletteHTTPException
 
-from homecog.errors import ContextError, HomecogError, PlanningError
+from homecog.errors import ContextError, HomecogError, PlanningError, StoreError
 from homecog.home.model import Home, parse_state
-from homecog.knowledge.store import StoreError
 from homecog.web.models import ErrorOut
 
 log = logging.getLogger("homecog.web")

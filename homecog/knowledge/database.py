@@ -1,0 +1,104 @@
+"""Database URLs and engines for the knowledge store: SQLite by default (a file per home under
+the data directory), MariaDB/MySQL (PyMySQL) and PostgreSQL (psycopg 3).
+
+>>> redact("postgresql+psycopg://robot:secret@db.local/homes")
+'postgresql+psycopg://robot:***@db.local/homes'
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import Any
+
+from sqlalchemy import create_engine, event
+from sqlalchemy.engine import Connection, Engine, make_url
+from sqlalchemy.exc import ArgumentError, DBAPIError, NoSuchModuleError
+
+from homecog.errors import StoreError
+from homecog.home.model import Home
+from homecog.paths import data_dir
+
+CONNECT_TIMEOUT = 10  # seconds to wait for a database server (unless the URL says connect_timeout)
+
+
+class ConflictError(StoreError):
+    """A transaction the server aborted for a deadlock or a serialization failure: retry it."""
+
+
+def is_conflict(e: DBAPIError) -> bool:
+    """Whether a database error is a deadlock or serialization failure (worth a retry)."""
+    orig = e.orig
+    code = orig.args[0] if orig is not None and orig.args else None
+    # MySQL/MariaDB 1213: deadlock; PostgreSQL 40P01: deadlock, 40001: serialization failure
+    return code == 1213 or getattr(orig, "sqlstate", None) in ("40P01", "40001")
+
+
+def default_url(home: Home) -> str:
+    """``$HOMECOG_DB`` or a SQLite file under the data directory, one per home."""
+    env = os.environ.get("HOMECOG_DB")
+    if env:
+        return env
+    path = data_dir() / "knowledge" / f"{home.name}-{home.content_hash[:16]}.sqlite"
+    return f"sqlite:///{path}"
+
+
+def redact(url: str) -> str:
+    """A URL without its password, for messages."""
+    from sqlalchemy.engine import make_url
+
+    try:
+        return make_url(url).render_as_string(hide_password=True)
+    except ArgumentError:
+        return url
+
+
+def make_engine(url: str) -> Engine:
+    """An engine for a URL; SQLite gets WAL, a busy timeout and immediate write transactions."""
+    try:
+        if url.startswith("sqlite"):
+            path = url.split("///", 1)[1] if "///" in url else ""
+            if path and path != ":memory:":
+                Path(path).parent.mkdir(parents=True, exist_ok=True)
+            engine = create_engine(url, connect_args={"timeout": 60})
+
+            @event.listens_for(engine, "connect")
+            def _connect(dbapi_connection: Any, _: Any) -> None:
+                dbapi_connection.isolation_level = None  # we issue BEGIN ourselves
+                cursor = dbapi_connection.cursor()
+                cursor.execute("PRAGMA journal_mode=WAL")
+                # WAL with synchronous=NORMAL: a commit survives a crash of the program (the
+                # SIGKILL test), only a power cut may lose the last ones; the file never corrupts
+                cursor.execute("PRAGMA synchronous=NORMAL")
+                cursor.execute("PRAGMA foreign_keys=ON")
+                cursor.close()
+
+            @event.listens_for(engine, "begin")
+            def _begin(conn: Connection) -> None:
+                conn.exec_driver_sql("BEGIN IMMEDIATE")
+
+            return engine
+        # a server that drops packets must not hang a command: libpq waits forever by default
+        parsed = make_url(url)
+        connect_args: dict[str, Any] = {}
+        if (
+            parsed.get_backend_name() in ("postgresql", "mysql", "mariadb")
+            and "connect_timeout" not in parsed.query
+        ):
+            connect_args["connect_timeout"] = CONNECT_TIMEOUT
+        return create_engine(url, pool_pre_ping=True, connect_args=connect_args)
+    except (ArgumentError, NoSuchModuleError, ValueError) as e:
+        raise StoreError(f"--db {redact(url)}: not a database URL ({e})") from None
+    except ImportError as e:
+        raise StoreError(f"--db {redact(url)}: driver missing ({e.name}); install it with pip") from None
+    except OSError as e:
+        raise StoreError(f"--db {redact(url)}: {e.strerror}") from None
+
+
+def db_message(url: str, e: BaseException) -> str:
+    orig = getattr(e, "orig", None) or e
+    text_ = str(orig).strip().splitlines()[0] if str(orig).strip() else type(orig).__name__
+    return f"--db {redact(url)}: cannot use the database: {text_}"
+
+
+# -- encoding the tree -------------------------------------------------------------------------
