@@ -725,7 +725,10 @@ def up(
     port: Annotated[int, typer.Option(help="Port to serve on.")] = 8000,
     token: Annotated[
         str | None,
-        typer.Option(help="Token for writes (default: none on 127.0.0.1, else generated and printed once)."),
+        typer.Option(
+            help="Token every /api request needs (default: $HOMECOG_TOKEN; none on 127.0.0.1, "
+            "else generated and printed once)."
+        ),
     ] = None,
     speed: Annotated[
         float, typer.Option(help="Simulated seconds per real second of the simulated home (0: manual).")
@@ -753,6 +756,7 @@ def up(
     ] = None,
 ) -> None:
     """Start the robot: train or reuse the Q table, build or reuse the tree, serve the HMI."""
+    import functools
     import gc
     import secrets
 
@@ -761,8 +765,9 @@ def up(
     from homecog.context.simulated import SimulatedHome
     from homecog.knowledge.pipeline import open_tree
     from homecog.knowledge.store import Store, redact
-    from homecog.web.app import create_app
+    from homecog.web.main import create_app
     from homecog.web.runtime import ManualSource, Runtime
+    from homecog.web.settings import Settings
 
     if not 0 < port < 65536:
         raise UsageProblemError(f"--port must be 1 to 65535, got {port}")
@@ -777,9 +782,10 @@ def up(
             "--home-assistant is the home's context; it goes with neither --mqtt nor --publish"
         )
     h = load_home(home)
-    if host not in LOCAL_HOSTS and token is None:
-        token = secrets.token_urlsafe(24)
-        stdout.print(f"token for writes (shown once): {token}")
+    settings = Settings.of(token=token)  # or $HOMECOG_TOKEN
+    if host not in LOCAL_HOSTS and settings.token is None:
+        settings = settings.model_copy(update={"token": secrets.token_urlsafe(24)})
+        stdout.print(f"token for every /api request (shown once): {settings.token}")
     say = stdout.print
     with contextlib.ExitStack() as stack:
         if home_assistant is not None:  # first: a wrong URL, token or entity fails before any training
@@ -796,17 +802,20 @@ def up(
         if mqtt is not None:
             from homecog.context.mqtt import MqttSource
 
-            source = MqttSource(h, mqtt, on_change=lambda snapshot: runtime.publish("context", snapshot))
+            source = MqttSource(h, mqtt)
+        if home_assistant is not None:
+            source = ha_source
+        runtime = Runtime(home=h, store=store, tree=tree, source=source)
+        if mqtt is not None:  # started once the runtime exists: a retained state comes at once
+            source.on_change = functools.partial(runtime.publish, "context")
             source.start()
             stack.callback(source.stop)
             say(
                 f"context from {mqtt}: topics homecog/{h.name}/state/<name>, "
                 f"commands to homecog/{h.name}/command/<device>"
             )
-        if home_assistant is not None:
-            source = ha_source
-            ha_source.on_change = lambda snapshot: runtime.publish("context", snapshot)
-        runtime = Runtime(home=h, store=store, tree=tree, source=source, token=token)
+        if home_assistant is not None:  # running since before the training: its changes go on from here
+            ha_source.on_change = functools.partial(runtime.publish, "context")
         if publish is not None:
             from homecog.context.mqtt import MqttPublisher
 
@@ -820,10 +829,10 @@ def up(
             )
         say(f"knowledge: {redact(store.url)} ({store.experience_count():,} experiences)", style="dim")
         say(f"homecog is up: http://{host if ':' not in host else f'[{host}]'}:{port}")
-        live = (speed or None) if mqtt is None and home_assistant is None else 1.0  # a real home's own clock
+        live = speed if mqtt is None and home_assistant is None else 1.0  # a real home's own clock
         gc.freeze()  # the tree lives as long as the server: keep the collector from walking it
         uvicorn.run(
-            create_app(runtime, speed=live),
+            create_app(runtime, settings.model_copy(update={"live": live})),
             host=host,
             port=port,
             log_level="warning",

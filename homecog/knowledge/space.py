@@ -26,7 +26,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from homecog.errors import ContextError
-from homecog.home.model import Feature, Home, format_clock, format_number
+from homecog.home.model import Feature, Home, format_clock, format_number, parse_clock
 
 
 @dataclass(frozen=True)
@@ -130,17 +130,12 @@ class Space:
                 codes.append(lookup[value if isinstance(value, bool) else str(value).lower()])
                 readings.append(None)
             else:
-                if kind == "clock" and isinstance(value, str):
-                    h, _, m = value.partition(":")
-                    x = int(h) + (int(m) / 60 if m else 0.0) if m else float(h)
-                    if not (0 <= x <= 24 and (not m or int(m) < 60)):
-                        raise ValueError(value)
-                    x %= 24
+                if kind == "clock":  # the home's one clock parser, so both read a time alike
+                    x = parse_clock(value)  # type: ignore[arg-type]
                 else:
                     x = float(value)  # type: ignore[arg-type]
-                    if isinstance(value, bool) or x != x or (kind == "clock" and not 0 <= x <= 24):
+                    if isinstance(value, bool) or x != x:
                         raise ValueError(value)
-                    x = x % 24 if kind == "clock" else x
                 edges, order = lookup
                 k = order[bisect.bisect_right(edges, x) - 1]
                 if k < 0:
