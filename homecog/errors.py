@@ -44,3 +44,7 @@ class HomeAssistantError(HomecogError):
 class StoreError(HomecogError):
     """A knowledge database that cannot be used: a bad URL, a server that cannot be reached, a
     database made for another home, or a log that does not fit."""
+
+
+class UsageProblemError(HomecogError):
+    """A bad command-line argument."""
