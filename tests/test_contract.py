@@ -19,9 +19,9 @@ from webserver import build_studio, homecog_up
 
 from homecog.errors import ContextError
 from homecog.home import load_home
-from homecog.home.model import parse_clock
+from homecog.home.clock import parse_clock
+from homecog.home.codec import Space
 from homecog.knowledge.ihdr import IHDRTree
-from homecog.knowledge.space import Space
 from homecog.knowledge.store import Store
 from homecog.web.main import create_app
 from homecog.web.models import CLOCK_PATTERN, HomeModels

@@ -11,7 +11,7 @@ from homecog.cli.main import main
 from homecog.evaluation.evaluate import EvaluationError, check_truth, evaluate, load_scenarios
 from homecog.evaluation.scenarios import Scenario, random_scenarios
 from homecog.home import load_home
-from homecog.knowledge.space import Space
+from homecog.home.codec import Space
 
 HOMES = Path(__file__).parent / "homes"
 STUDIO = str(HOMES / "studio.yaml")

@@ -12,13 +12,13 @@ import pytest
 
 from homecog.evaluation.scenarios import random_scenarios
 from homecog.home import Home, load_home
+from homecog.home.codec import Point
 from homecog.knowledge.box_index import BoxIndex
 from homecog.knowledge.ihdr import IHDRTree
 from homecog.knowledge.model import IDLE, Cluster, Node
 from homecog.knowledge.pipeline import learn_policy
 from homecog.knowledge.sample_log import SampleLog
 from homecog.knowledge.samples import SampleSet, policy_samples
-from homecog.knowledge.space import Point
 from homecog.knowledge.store import Store
 from homecog.learning.grouped import train_policy
 from homecog.learning.sarsa import SarsaConfig

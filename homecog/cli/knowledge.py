@@ -42,7 +42,7 @@ def cognize(
     json: JsonOption = False,
 ) -> None:
     """The services the user needs in a context, in priority order, and why."""
-    from homecog.knowledge.space import Space, parse_context
+    from homecog.home.codec import Space, parse_context
 
     h = load_home(home)
     point = parse_context(context, Space(h))
@@ -74,7 +74,7 @@ def correct(
     json: JsonOption = False,
 ) -> None:
     """Tell the robot which services the user wants in a context; it learns at once."""
-    from homecog.knowledge.space import Space, parse_context, parse_services
+    from homecog.home.codec import Space, parse_context, parse_services
 
     h = load_home(home)
     point = parse_context(context, Space(h))

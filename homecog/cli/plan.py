@@ -29,7 +29,7 @@ PlanContextOption = Annotated[
 
 
 def _plan(h: Home, services: str, context: str | None) -> Any:
-    from homecog.knowledge.space import Space, parse_context
+    from homecog.home.codec import Space, parse_context
     from homecog.planning import plan_services
 
     names = [s.strip() for s in services.split(",") if s.strip()]
@@ -108,7 +108,7 @@ def _initial_devices(h: Home, context: str | None) -> dict[str, bool]:
     """The device states before the plan: from the context, else all off."""
     if context is None:
         return {d.name: False for d in h.devices}
-    from homecog.knowledge.space import Space, parse_context
+    from homecog.home.codec import Space, parse_context
     from homecog.planning import initial_state
 
     space = Space(h)

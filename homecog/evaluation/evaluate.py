@@ -24,13 +24,14 @@ from homecog.evaluation import metrics
 from homecog.evaluation.learn import EvaluationError, learn_methods
 from homecog.evaluation.methods import METHODS, Method, TreeMethod
 from homecog.evaluation.scenarios import Scenario, random_scenarios, truth_of
+from homecog.home.codec import Space, parse_services
 from homecog.home.loader import is_compatible
-from homecog.home.model import Home, parse_state
+from homecog.home.model import Home
+from homecog.home.states import parse_state
 from homecog.knowledge.ihdr import IHDRTree
 from homecog.knowledge.pipeline import ensure_policy
 from homecog.knowledge.sample_log import SampleLog
 from homecog.knowledge.samples import SampleSet
-from homecog.knowledge.space import Space, parse_services
 from homecog.learning.size import check_size
 
 Progress = Callable[[str], None]

@@ -18,8 +18,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from homecog.home.codec import Point, Space, finite_span
 from homecog.home.model import Home
-from homecog.knowledge.space import Point, Space, finite_span
 
 
 @dataclass(frozen=True)

@@ -21,7 +21,8 @@ from fastapi.responses import JSONResponse
 from starlette.exceptions import HTTPException as StarletteHTTPException
 
 from homecog.errors import ContextError, HomecogError, PlanningError, StoreError
-from homecog.home.model import Home, parse_state
+from homecog.home.model import Home
+from homecog.home.states import parse_state
 from homecog.web.models import ErrorOut
 
 log = logging.getLogger("homecog.web")

@@ -27,7 +27,9 @@ from typing import Annotated, Any, Literal
 from pydantic import BaseModel, ConfigDict, Field, Strict, create_model
 from typing_extensions import TypedDict
 
-from homecog.home.model import Feature, Home, format_clock, parse_clock, parse_state
+from homecog.home.clock import format_clock, parse_clock
+from homecog.home.model import Feature, Home
+from homecog.home.states import parse_state
 
 # Decimal hours or HH:MM[:SS] from 00:00 to 24:00, ASCII digits. Every string it matches is
 # accepted by the home's own parser (homecog.home.model.parse_clock) with the same meaning;

@@ -23,9 +23,10 @@ import orjson
 
 from homecog.context import ContextSource
 from homecog.errors import ContextError, HomecogError
-from homecog.home.model import Home, format_clock, format_number
+from homecog.home.clock import format_clock
+from homecog.home.codec import Space, parse_services
+from homecog.home.model import Home, format_number
 from homecog.knowledge.ihdr import IHDRTree
-from homecog.knowledge.space import Space, parse_services
 from homecog.knowledge.store import Store
 from homecog.web.models import json_context
 
