@@ -22,17 +22,13 @@ import numpy as np
 import orjson
 
 from homecog.context import ContextSource
-from homecog.errors import ContextError, HomecogError
+from homecog.errors import ContextError, FixedContextError
 from homecog.home.clock import format_clock
 from homecog.home.codec import Space, parse_services
 from homecog.home.model import Home, format_number
 from homecog.knowledge.ihdr import IHDRTree
 from homecog.knowledge.store import Store
 from homecog.web.models import json_context
-
-
-class FixedContextError(HomecogError):
-    """The context comes from a source that cannot be set by hand (a broker)."""
 
 
 class ManualSource:
