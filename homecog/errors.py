@@ -44,3 +44,9 @@ class HomeAssistantError(HomecogError):
 class StoreError(HomecogError):
     """A knowledge database that cannot be used: a bad URL, a server that cannot be reached, a
     database made for another home, or a log that does not fit."""
+
+
+class CommandError(HomecogError):
+    """A command that could not carry an action out in the world: a switch whose broker is
+    gone, a door that is closed, an object that is not where the robot believed it. Acting
+    observes the world again and plans anew when one fails."""

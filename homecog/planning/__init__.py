@@ -18,15 +18,18 @@ from collections.abc import Mapping, Sequence
 
 from homecog.errors import PlanningError
 from homecog.home.model import Home
+from homecog.planning.acting import Acting, act
 from homecog.planning.domain import make_domain
 from homecog.planning.planner import Domain, Plan, TaskNode, find_plan
 from homecog.planning.state import State, initial_state
 
 __all__ = [
+    "Acting",
     "Domain",
     "Plan",
     "State",
     "TaskNode",
+    "act",
     "find_plan",
     "initial_state",
     "make_domain",

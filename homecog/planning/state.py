@@ -70,3 +70,30 @@ def initial_state(
     return State(
         robot=layout.robot, user=user, objects=dict(layout.objects), devices=device_states(home, context)
     )
+
+
+def observed_state(home: Home, context: Mapping[str, object], robot: State | None = None) -> State:
+    """The planning state as observed: the devices and the user's place from ``context`` (a
+    context source's snapshot), the rest (where the robot is, what it holds, where the objects
+    are, whether it is docked) from ``robot``, the robot's own state (default: as the home
+    starts). The user stays where ``robot`` has them while the context's location is no place
+    of the layout. A home without a layout has no places: its state serves IoT switches only.
+
+    >>> from homecog.home import load_home
+    >>> home = load_home("paper")
+    >>> robot = initial_state(home, user="sofa")
+    >>> robot.robot = "bed"
+    >>> state = observed_state(home, {"location": "table", "window": "on"}, robot)
+    >>> state.robot, state.user, state.devices["window"]
+    ('bed', 'table', True)
+    """
+    devices = device_states(home, context)
+    layout = home.layout
+    if layout is None:
+        return State(robot="", user="", devices=devices)
+    state = robot.copy() if robot is not None else initial_state(home)
+    state.devices = devices
+    location = context.get("location")
+    if location is not None and layout.has_place(str(location)):
+        state.user = str(location)
+    return state
