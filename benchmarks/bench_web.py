@@ -88,15 +88,16 @@ def start(home: str, port: int, db: str | None) -> tuple[subprocess.Popen[bytes]
         time.sleep(0.05)
 
 
-def contexts(home: str, n: int, seed: int = 0) -> list[dict[str, str]]:
-    """``n`` random valid contexts of the home, as a client would send them."""
+def contexts(home: str, n: int, seed: int = 0) -> list[dict[str, str | float]]:
+    """``n`` random valid contexts of the home, as a client would send them (numbers as numbers)."""
     from homecog.evaluation.scenarios import random_scenarios
     from homecog.home import load_home
-    from homecog.knowledge.space import Space
+    from homecog.home.codec import Space
+    from homecog.web.models import json_context
 
     h = load_home(home)
     space = Space(h)
-    return [space.context(s.point) for s in random_scenarios(h, n, seed=seed)]
+    return [json_context(h, space.context(s.point)) for s in random_scenarios(h, n, seed=seed)]
 
 
 def wrk(url: str, bodies: list[str], clients: int, seconds: int, pause: int = 0) -> dict[str, float]:

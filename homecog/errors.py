@@ -46,6 +46,10 @@ class StoreError(HomecogError):
     database made for another home, or a log that does not fit."""
 
 
+class UsageProblemError(HomecogError):
+    """A bad command-line argument."""
+
+
 class CommandError(HomecogError):
     """A command that could not carry an action out in the world: a switch whose broker is
     gone, a door that is closed, an object that is not where the robot believed it. Acting

@@ -7,8 +7,14 @@ changes gets new ones and a Q table is never used for another home.
 
 from __future__ import annotations
 
+import json
 import os
+import tempfile
+import zipfile
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
+from typing import BinaryIO
 
 from platformdirs import user_data_path
 
@@ -25,3 +31,44 @@ def q_table_path(home: Home, *, joint: bool = False) -> Path:
     """The cached Q tables of a home: learned group by group, or (``joint``) as one table."""
     suffix = "-joint" if joint else ""
     return data_dir() / "qtables" / f"{home.name}-{home.content_hash[:16]}{suffix}.npz"
+
+
+@contextmanager
+def atomic_write(path: Path, error: type[Exception]) -> Iterator[BinaryIO]:
+    """A file to write ``path`` through: a temporary file beside it, renamed into place when the
+    block ends without an error, so a failed or interrupted write leaves the old file as it was.
+    An OS error becomes ``error`` naming the path."""
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    except OSError as e:
+        raise error(f"{path}: cannot write: {e.strerror}") from None
+    try:
+        with os.fdopen(fd, "wb") as f:
+            yield f
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes it private; what we write is not secret
+        os.replace(tmp, path)
+    except OSError as e:
+        Path(tmp).unlink(missing_ok=True)
+        raise error(f"{path}: cannot write: {e.strerror}") from None
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+@contextmanager
+def reading(path: Path, error: type[Exception], what: str) -> Iterator[None]:
+    """Errors of reading ``path`` as ``error`` naming it: missing, a folder, not allowed, or not
+    ``what`` (a file of another kind or a damaged one)."""
+    try:
+        yield
+    except FileNotFoundError:
+        raise error(f"{path}: no such file") from None
+    except IsADirectoryError:
+        raise error(f"{path}: is a directory, not {what}") from None
+    except PermissionError:
+        raise error(f"{path}: cannot read: permission denied") from None
+    except (OSError, EOFError, ValueError, KeyError, zipfile.BadZipFile, json.JSONDecodeError):
+        raise error(f"{path}: not {what}") from None

@@ -3,66 +3,41 @@
 from __future__ import annotations
 
 import shutil
-import socket
-import threading
-import time
 from pathlib import Path
 
 import pytest
+from webserver import LAYOUT, serve
 
 from homecog.home import load_home_text
 from homecog.knowledge.pipeline import build
 from homecog.knowledge.store import Store
-from homecog.web.app import create_app
+from homecog.web.main import create_app
 from homecog.web.runtime import ManualSource, Runtime
+from homecog.web.settings import Settings
 
 STUDIO = Path(__file__).parent / "homes" / "studio.yaml"
-LAYOUT = """
-layout:
-  size: [6, 4]
-  rooms: {studio: [0, 0, 4, 4], bath: [4, 0, 6, 4]}
-  walls: [[4, 0, 4, 4]]
-  doors: [[4, 1, 4, 2]]
-  places: {desk: [1, 1], couch: [3, 3], kettle: [5, 3]}
-  objects: {tea: kettle}
-"""
 CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
 SCREENSHOT = Path(__file__).parent.parent / "docs" / "hmi.png"
 
 
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
 @pytest.fixture(scope="module")
-def server(tmp_path_factory):
+def runtime(tmp_path_factory):
     if CHROMIUM is None:
         pytest.skip("no chromium on this machine (Debian package chromium; .ci/run installs it)")
     pytest.importorskip("playwright.sync_api", reason="playwright is not installed")
-    import uvicorn
-
     home = load_home_text(STUDIO.read_text() + LAYOUT, "studio.yaml")
     store = Store(f"sqlite:///{tmp_path_factory.mktemp('hmi') / 'knowledge.sqlite'}", home)
     tree = build(home, store).tree
     runtime = Runtime(home=home, store=store, tree=tree, source=ManualSource(home))
-    runtime.set_context({"time": "10:00", "light": "50", "activity": "work"})
-    port = _free_port()
-    config = uvicorn.Config(
-        create_app(runtime), host="127.0.0.1", port=port, log_level="warning", timeout_graceful_shutdown=1
-    )
-    uv = uvicorn.Server(config)
-    thread = threading.Thread(target=uv.run, daemon=True)
-    thread.start()
-    deadline = time.monotonic() + 20
-    while not uv.started:
-        assert time.monotonic() < deadline, "the server did not start"
-        time.sleep(0.05)
-    yield f"http://127.0.0.1:{port}", runtime
-    uv.should_exit = True
-    thread.join(timeout=10)
+    runtime.set_context({"time": "10:00", "light": 50, "activity": "work"})
+    yield runtime
     store.close()
+
+
+@pytest.fixture(scope="module")
+def server(runtime):
+    with serve(create_app(runtime)) as url:
+        yield url, runtime
 
 
 def test_the_page_shows_live_context_and_takes_a_correction(server):
@@ -114,3 +89,35 @@ def test_the_page_shows_live_context_and_takes_a_correction(server):
         page.screenshot(path=str(SCREENSHOT), full_page=True)
         browser.close()
     assert SCREENSHOT.stat().st_size > 10_000
+
+
+def test_off_loopback_the_page_asks_for_the_token_once_and_keeps_it(runtime):
+    """With a token every /api request needs it: the page asks once, keeps it in the browser, and
+    opens the event stream with it."""
+    from playwright.sync_api import expect, sync_playwright
+
+    token = "hmi-token-123"
+    asked: list[str] = []
+    with serve(create_app(runtime, Settings(token=token))) as url, sync_playwright() as p:
+        browser = p.chromium.launch(executable_path=CHROMIUM, headless=True, args=["--no-sandbox"])
+        page = browser.new_page()
+
+        def answer(dialog):
+            asked.append(dialog.message)
+            dialog.accept(token)
+
+        page.on("dialog", answer)
+        page.goto(url)
+        expect(page.locator("#home-name")).to_have_text("studio")
+        expect(page.locator("#status")).to_have_text("live")  # the stream opened with the token
+        expect(page.locator("#services li").first).to_have_attribute("data-service", "RaiseBlind")
+        assert len(asked) == 1 and "token" in asked[0]
+        assert page.evaluate("localStorage.getItem('homecog-token')") == token
+        runtime.set_context({"activity": "relax"})  # an event through the stream
+        expect(page.locator('#context td[data-name="activity"]')).to_have_text("relax")
+        runtime.set_context({"activity": "work"})
+        page.reload()  # kept: not asked again
+        expect(page.locator("#status")).to_have_text("live")
+        expect(page.locator("#home-name")).to_have_text("studio")
+        assert len(asked) == 1
+        browser.close()

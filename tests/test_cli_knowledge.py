@@ -187,9 +187,12 @@ def test_database_made_for_another_home(built, capsys):
 
 def test_build_bad_arguments(capsys, tmp_path):
     for args, message in [
-        (["--mode", "deep"], "--mode must be one of multi, paper, got 'deep'"),
+        (
+            ["--mode", "deep"],
+            "Invalid value for '--mode': Value error, 'deep' is not one of 'multi', 'paper'",
+        ),
         (["--q", str(tmp_path / "none.npz")], "none.npz: no such file"),
-        (["--seed", "-1"], "--seed must be 0 or more"),
+        (["--seed", "-1"], "Invalid value for '--seed': Input should be greater than or equal to 0"),
     ]:
         code, _out, err = run(
             capsys, "build", "--home", STUDIO, "--db", f"sqlite:///{tmp_path / 'x.sqlite'}", *args

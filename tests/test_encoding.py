@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from homecog.errors import ContextError
+from homecog.home.clock import parse_clock
 from homecog.home.encoding import (
     coded,
     context_codes,
@@ -16,7 +17,6 @@ from homecog.home.encoding import (
     paper_index,
     parse_hardware_code,
 )
-from homecog.home.model import parse_clock
 
 
 def test_table1_coding(paper):

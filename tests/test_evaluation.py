@@ -11,7 +11,7 @@ from homecog.cli.main import main
 from homecog.evaluation.evaluate import EvaluationError, check_truth, evaluate, load_scenarios
 from homecog.evaluation.scenarios import Scenario, random_scenarios
 from homecog.home import load_home
-from homecog.knowledge.space import Space
+from homecog.home.codec import Space
 
 HOMES = Path(__file__).parent / "homes"
 STUDIO = str(HOMES / "studio.yaml")
@@ -160,7 +160,10 @@ def test_eval_json_and_learning_curve(tmp_path, capsys):
         (["--scenarios", "0"], "--scenarios must be at least 1"),
         (["--scenarios", "nothere.csv"], "--scenarios nothere.csv: no such file"),
         (["--methods", "multi,svm"], "--methods: unknown method 'svm'"),
-        (["--corrections", "-2"], "--corrections must be 0 or more"),
+        (
+            ["--corrections", "-2"],
+            "Invalid value for '--corrections': Input should be greater than or equal to 0",
+        ),
     ],
 )
 def test_eval_bad_input(capsys, args, message):

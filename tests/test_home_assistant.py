@@ -173,7 +173,7 @@ def test_the_running_robot_acts_through_home_assistant(
 
     from homecog.knowledge.pipeline import build
     from homecog.knowledge.store import Store
-    from homecog.web.app import create_app
+    from homecog.web.main import create_app
     from homecog.web.runtime import Runtime
 
     home = source.home
@@ -299,7 +299,7 @@ def test_homecog_up_runs_the_robot_in_home_assistant(
         assert up.poll() is None
         status = get("/api/source")
         assert (status["kind"], status["version"], status["url"]) == ("home_assistant", VERSION, ha.url)
-        assert get("/api/context") == INITIAL
+        assert get("/api/context") == {**INITIAL, "light": 300.0}  # the API's numbers are numbers
         ha.server.call(ha.person, "input_select.select_option", "input_select.activity", option="relaxing")
         for entity, state in (("input_boolean.radio", "on"), ("cover.blind", "open")):
             wait(

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import pickle
-import random
 
 import numpy as np
 import pytest
@@ -11,11 +10,11 @@ from knowledge_fixtures import home, samples, tree
 
 from homecog.environment.core import Core
 from homecog.errors import ContextError
-from homecog.evaluation.scenarios import random_scenarios, scores
+from homecog.evaluation.metrics import scores
+from homecog.evaluation.scenarios import random_scenarios
 from homecog.knowledge.ihdr import IHDRTree
-from homecog.knowledge.model import IDLE, Numeric
+from homecog.knowledge.model import Numeric
 from homecog.knowledge.samples import _axes
-from homecog.knowledge.store import Store
 
 PAPER_FIG9 = [
     (
@@ -214,66 +213,7 @@ def test_explanations_name_cluster_and_conditions():
     assert wake.conditions["time"] == "early_morning 07:00-08:00"
 
 
-# -- generic learner checks over both modes --------------------------------------------------------
-MODES = ["multi", "paper"]
-
-
-@pytest.mark.parametrize("mode", MODES)
-def test_clone_is_untrained_with_the_same_parameters(mode):
-    t = tree("studio", mode)
-    c = t.clone()
-    assert repr(c) == repr(t)
-    assert c.n_clusters() == 0
-    assert c.clone().mode == mode
-
-
-@pytest.mark.parametrize("mode", MODES)
-def test_pickling_round_trip(mode):
-    t = tree("studio", mode)
-    back = pickle.loads(pickle.dumps(t))
-    assert back.signature() == t.signature()
-    for s in random_scenarios(home("studio"), 200, seed=3):
-        assert back.predict_one(s.context) == t.predict_one(s.context)
-
-
-@pytest.mark.parametrize("mode", MODES)
-def test_feature_order_is_irrelevant(mode):
-    t = tree("flat", mode)
-    rng = random.Random(0)
-    for s in random_scenarios(home("flat"), 200, seed=4):
-        items = list(s.context.items())
-        rng.shuffle(items)
-        assert t.predict_one(dict(items)) == t.predict_one(s.context)
-
-
-@pytest.mark.parametrize("mode", MODES)
-def test_store_round_trip_answers_identically(mode, tmp_path):
-    t = tree("flat", mode)
-    store = Store(f"sqlite:///{tmp_path / 'k.sqlite'}", home("flat"))
-    store.save_build(t, samples("flat"))
-    back = store.load_tree()
-    assert back.signature() == t.signature()
-    for s in random_scenarios(home("flat"), 300, seed=5):
-        assert back.explain_one(s.point).as_dict() == t.explain_one(s.point).as_dict()
-
-
-@pytest.mark.parametrize("mode", MODES)
-def test_learn_one_equals_learn_many(mode):
-    ss = samples("studio")
-    many = IHDRTree(home("studio"), mode=mode)
-    many.learn_many(ss)
-    one = IHDRTree(home("studio"), mode=mode)
-    names = home("studio").service_names
-    for i in range(len(ss)):
-        s = ss[i]
-        relevant = {names[a]: m for a, m in zip(s.services, s.relevant, strict=True)}
-        relevant[IDLE] = int(ss.masks[i, -1])
-        one.learn_one(s.point, [names[a] for a in s.services], relevant=relevant)
-    for s in random_scenarios(home("studio"), 300, seed=6):
-        a, b = one.explain_one(s.point), many.explain_one(s.point)
-        assert (a.services, a.unknown) == (b.services, b.unknown)
-
-
+# -- input checks (the generic learner checks: tests/test_learner_checks.py) ---------------------
 def test_invalid_mode_and_input():
     with pytest.raises(ValueError, match="mode must be one of multi, paper, got 'deep'"):
         IHDRTree(home("studio"), mode="deep")

@@ -12,7 +12,8 @@ from pathlib import Path
 import pytest
 
 from homecog.evaluation.evaluate import run as run_eval
-from homecog.evaluation.scenarios import random_scenarios, scores
+from homecog.evaluation.metrics import scores
+from homecog.evaluation.scenarios import random_scenarios
 from homecog.home import Home
 from homecog.knowledge.ihdr import IHDRTree
 from homecog.knowledge.pipeline import build

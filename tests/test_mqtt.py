@@ -33,8 +33,8 @@ from homecog.context.mqtt import (
 )
 from homecog.errors import ContextError, HomecogError
 from homecog.home import load_home
+from homecog.home.codec import Space
 from homecog.home.model import Home
-from homecog.knowledge.space import Space
 
 TIMEOUT = 10.0  # seconds to wait for anything to arrive
 

@@ -10,12 +10,12 @@ import pytest
 from pvlib.iotools import read_tmy3
 
 from homecog.context import ContextSource
-from homecog.context.routine import Routine
 from homecog.context.simulated import SimulatedHome
 from homecog.context.weather import tmy_path
 from homecog.errors import ContextError, HomeFileError
 from homecog.home import Home, load_home_text
-from homecog.knowledge.space import Space
+from homecog.home.codec import Space
+from homecog.home.routine import Routine
 
 HOMES = Path(__file__).parent / "homes"
 STUDIO_TEXT = (HOMES / "studio.yaml").read_text(encoding="utf-8")

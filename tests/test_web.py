@@ -7,26 +7,21 @@ from pathlib import Path
 
 import pytest
 from fastapi.testclient import TestClient
+from webserver import LAYOUT
 
 from homecog.home import load_home_text
 from homecog.knowledge.pipeline import build
 from homecog.knowledge.store import Store
-from homecog.web.app import MAX_BODY, create_app
+from homecog.web.fastpath import MAX_BODY
+from homecog.web.main import create_app
+from homecog.web.models import json_context
 from homecog.web.runtime import ManualSource, Runtime
+from homecog.web.settings import Settings
 
 STUDIO = Path(__file__).parent / "homes" / "studio.yaml"
-LAYOUT = """
-layout:
-  size: [6, 4]
-  rooms: {studio: [0, 0, 4, 4], bath: [4, 0, 6, 4]}
-  walls: [[4, 0, 4, 4]]
-  doors: [[4, 1, 4, 2]]
-  places: {desk: [1, 1], couch: [3, 3], kettle: [5, 3]}
-  objects: {tea: kettle}
-"""
 WORK = {
     "time": "10:00",
-    "light": "50",
+    "light": 50,
     "activity": "work",
     "blind": "off",
     "desk_lamp": "off",
@@ -62,10 +57,20 @@ def test_home_and_context(client, runtime):
     assert [s["name"] for s in home["services"]] == list(runtime.home.service_names)
     assert home["layout"]["rooms"] == {"studio": [0, 0, 4, 4], "bath": [4, 0, 6, 4]}
     assert home["layout"]["places"]["kettle"] == [5, 3] and home["layout"]["doors"] == [[4, 1, 4, 2]]
-    assert client.get("/api/context").json() == runtime.source.snapshot()
-    r = client.put("/api/context", json={"values": {"activity": "relax", "radio": "on"}})
+    context = client.get("/api/context").json()
+    assert context == json_context(runtime.home, runtime.source.snapshot())
+    assert context["time"] == "06:30" and context["light"] == 0 and context["radio"] == "off"
+    r = client.put("/api/context", json={"values": {"activity": "relax", "radio": "on", "time": 7.5}})
     assert r.status_code == 200 and r.json()["activity"] == "relax" and r.json()["radio"] == "on"
-    assert client.get("/api/context").json()["radio"] == "on"
+    assert client.get("/api/context").json() == {
+        **context,
+        "activity": "relax",
+        "radio": "on",
+        "time": "07:30",
+    }
+    # what GET gives, POST takes: the context round-trips
+    assert client.post("/api/cognize", json={"context": client.get("/api/context").json()}).status_code == 200
+    assert client.get("/api/source").json() == {"kind": "manual", "connected": True}
 
 
 def test_cognize_answers_as_the_tree(client, runtime):
@@ -143,7 +148,10 @@ def test_the_fast_path_answers_as_the_fastapi_route(client, runtime):
 
     route = TestClient(create_app(runtime).app.app)  # the FastAPI application itself
     client.post("/api/corrections", json={"context": WORK, "want": ["RadioOn"], "user": "kim"})
-    contexts = [runtime.space.context(s.point) for s in random_scenarios(runtime.home, 300, seed=3)]
+    contexts = [
+        json_context(runtime.home, runtime.space.context(s.point))
+        for s in random_scenarios(runtime.home, 300, seed=3)
+    ]
     services = set()
     for context in contexts:
         for user in ("kim", "default"):
@@ -202,22 +210,39 @@ def test_bad_input_stores_nothing(client, runtime):
     assert runtime.store.experience_count() == count
 
 
-def test_writes_need_the_token_when_one_is_set(runtime):
-    runtime.token = "s3cret"
-    client = TestClient(create_app(runtime))
+TOKEN = "s3cret-token"
+
+
+@pytest.mark.parametrize(
+    ("method", "path", "body"),
+    [
+        ("GET", "/api/home", None),
+        ("GET", "/api/context", None),
+        ("PUT", "/api/context", {"values": {"radio": "on"}}),
+        ("GET", "/api/source", None),
+        ("POST", "/api/cognize", {"context": WORK}),
+        ("POST", "/api/corrections", {"context": WORK, "want": ["LampOn"], "user": "kim"}),
+        ("POST", "/api/plan", {"services": ["BringTea"], "context": WORK}),
+        ("GET", "/api/history", None),
+        ("GET", "/api/events", None),
+    ],
+)
+def test_every_endpoint_needs_the_token_when_one_is_set(runtime, method, path, body):
+    client = TestClient(create_app(runtime, Settings(token=TOKEN)))
     count = runtime.store.experience_count()
-    body = {"context": WORK, "want": ["LampOn"], "user": "kim"}
-    r = client.post("/api/corrections", json=body)
-    assert r.status_code == 401 and "token" in r.json()["detail"]
-    assert (
-        client.post("/api/corrections", json=body, headers={"Authorization": "Bearer wrong"}).status_code
-        == 401
-    )
-    assert client.put("/api/context", json={"values": {"radio": "on"}}).status_code == 401
+    for headers in ({}, {"Authorization": "Bearer wrong-token"}, {"Authorization": f"Basic {TOKEN}"}):
+        r = client.request(method, path, json=body, headers=headers)
+        assert r.status_code == 401, (path, headers)
+        assert r.json()["detail"].startswith("this server needs its token: Authorization: Bearer <token>")
+        assert r.headers["www-authenticate"] == "Bearer"
     assert runtime.store.experience_count() == count
-    assert client.post("/api/cognize", json={"context": WORK}).status_code == 200  # reads stay open
-    ok = client.post("/api/corrections", json=body, headers={"Authorization": "Bearer s3cret"})
-    assert ok.status_code == 200 and runtime.store.experience_count() == count + 1
+    if path != "/api/events":  # an endless stream: tests/test_web_live.py opens it with the token
+        r = client.request(method, path + "?access_token=" + TOKEN, json=body)
+        assert r.status_code == 401  # the query parameter opens only the event stream
+        r = client.request(method, path, json=body, headers={"Authorization": f"bearer {TOKEN}"})
+        assert r.status_code == 200
+    assert client.get("/").status_code == 200  # the page itself asks for the token
+    assert client.get("/openapi.json").json()["components"]["securitySchemes"]["token"]["scheme"] == "bearer"
 
 
 def test_the_simulated_home_lives_and_the_robot_acts(built):

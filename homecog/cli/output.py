@@ -39,3 +39,12 @@ def progress_bar(description: str, total: int) -> Iterator[Any]:
             progress.update(task, completed=done, total=total)
 
         yield update
+
+
+def big_number(n: int) -> str:
+    """A count as people read it: ``663,552``, or ``1.3e+62`` past a trillion.
+
+    >>> big_number(663552), big_number(2**200)
+    ('663,552', '1.6e+60')
+    """
+    return f"{n:,}" if n < 10**12 else f"{n:.2g}"

@@ -50,6 +50,7 @@ from typing import Any
 
 from homecog.context.ha_client import CONNECT_TIMEOUT, TOKEN_HELP, connect, reason, websocket_url
 from homecog.errors import ContextError, HomeAssistantError
+from homecog.home.clock import format_clock
 from homecog.home.home_assistant import (
     DeviceEntity,
     FeatureEntity,
@@ -57,7 +58,7 @@ from homecog.home.home_assistant import (
     feature_value,
     unknown_entities,
 )
-from homecog.home.model import Home, format_clock
+from homecog.home.model import Home
 
 log = logging.getLogger(__name__)
 

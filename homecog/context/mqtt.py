@@ -57,7 +57,9 @@ import paho.mqtt.client as mqtt
 from paho.mqtt.enums import CallbackAPIVersion
 
 from homecog.errors import ContextError
-from homecog.home.model import Home, format_clock, format_number, parse_state
+from homecog.home.codec import normalize
+from homecog.home.model import Home
+from homecog.home.states import parse_state
 
 log = logging.getLogger(__name__)
 
@@ -131,30 +133,6 @@ def command_topic(home: Home, device: str, *, prefix: str = DEFAULT_PREFIX) -> s
 def context_topic(home: Home, *, prefix: str = DEFAULT_PREFIX) -> str:
     """The topic for several values at once, as a JSON object."""
     return f"{prefix}/{home.name}/context"
-
-
-def normalize(home: Home, name: str, value: object) -> str:
-    """A published value as the context writes it, or :class:`ContextError` when it does not fit.
-
-    >>> from homecog.home import load_home
-    >>> home = load_home("paper")
-    >>> normalize(home, "time", "7:30"), normalize(home, "temperature", "25.0"), normalize(home, "lamp", "ON")
-    ('07:30', '25', 'on')
-    """
-    for f in home.features:
-        if f.name == name:
-            f.discretize(value)  # raises naming the feature when the value fits no bin
-            parsed = f.parse(value)
-            if f.kind == "clock":
-                return format_clock(float(parsed))
-            if f.kind == "numeric":
-                return format_number(float(parsed))
-            return str(parsed)
-    if name in home.device_names:
-        return "on" if parse_state(value, name) else "off"
-    raise ContextError(
-        f"unknown feature or device {name!r}; expected {', '.join(home.feature_names + home.device_names)}"
-    )
 
 
 def _client(address: BrokerAddress, client_id: str | None) -> mqtt.Client:

@@ -1,6 +1,6 @@
 """A simulated home that lives through days at an accelerated clock (SPEC §10).
 
-The user follows the home's routine (:mod:`homecog.context.routine`): where they are and what
+The user follows the home's routine (:mod:`homecog.home.routine`): where they are and what
 they do comes from the step that holds, and the devices a step ``set`` s are switched when it
 starts. Temperature and illumination come from a typical year of real weather and the devices
 (:mod:`homecog.context.weather`). Devices keep their state until the robot (:meth:`switch`) or
@@ -32,10 +32,11 @@ from datetime import datetime, timedelta
 
 import numpy as np
 
-from homecog.context.routine import Routine, Step, default_routine
 from homecog.context.weather import Weather, clamp, numeric_readings
 from homecog.errors import ContextError
-from homecog.home.model import Home, format_clock, format_number, parse_state
+from homecog.home.codec import normalize
+from homecog.home.model import Home, format_number
+from homecog.home.routine import Routine, Step, default_routine
 
 DEFAULT_START = "2021-06-21 06:00"  # midsummer: warm days, cool nights, long daylight
 TEMPERATURE_NOISE = 0.2  # °C, standard deviation of the thermometer
@@ -173,27 +174,14 @@ class SimulatedHome:
         Checks everything before changing anything; raises :class:`ContextError` naming an
         unknown name or a value that fits no bin.
         """
-        features = {f.name: f for f in self.home.features}
         overrides: dict[str, str] = {}
         states: dict[str, bool] = {}
         for name, value in values.items():
+            written = normalize(self.home, name, value)  # ContextError naming what does not fit
             if name in self._states:
-                states[name] = parse_state(value, name)
-            elif name in features:
-                f = features[name]
-                f.discretize(value)  # raises ContextError naming the value and the valid range
-                reading = f.parse(value)
-                if f.kind == "clock":
-                    overrides[name] = format_clock(float(reading))
-                elif f.kind == "numeric":
-                    overrides[name] = format_number(float(reading))
-                else:
-                    overrides[name] = str(reading)
+                states[name] = written == "on"
             else:
-                raise ContextError(
-                    f"unknown feature or device {name!r}; expected "
-                    f"{', '.join(self.home.feature_names + self.home.device_names)}"
-                )
+                overrides[name] = written
         self._overrides.update(overrides)
         self._states.update(states)
 

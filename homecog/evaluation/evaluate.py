@@ -20,16 +20,18 @@ from pathlib import Path
 from typing import Any
 
 from homecog.errors import ContextError
+from homecog.evaluation import metrics
 from homecog.evaluation.learn import EvaluationError, learn_methods
 from homecog.evaluation.methods import METHODS, Method, TreeMethod
-from homecog.evaluation.scenarios import Scenario, random_scenarios, ratio, scores, truth_of
+from homecog.evaluation.scenarios import Scenario, random_scenarios, truth_of
+from homecog.home.codec import Space, parse_services
 from homecog.home.loader import is_compatible
-from homecog.home.model import Home, parse_state
+from homecog.home.model import Home
+from homecog.home.states import parse_state
 from homecog.knowledge.ihdr import IHDRTree
 from homecog.knowledge.pipeline import ensure_policy
 from homecog.knowledge.sample_log import SampleLog
 from homecog.knowledge.samples import SampleSet
-from homecog.knowledge.space import Space, parse_services
 from homecog.learning.size import check_size
 
 Progress = Callable[[str], None]
@@ -131,32 +133,10 @@ def evaluate(method: Method, scenarios: Sequence[Scenario], services: Sequence[s
     start = time.perf_counter()
     predicted = [method.predict_one(s.point) for s in scenarios]
     seconds = time.perf_counter() - start
-    truths = [s.truth_for(p) for s, p in zip(scenarios, predicted, strict=True)]
-    micro = scores(predicted, [sorted(t) for t in truths])
-    per_p, per_r = [], []
-    for p, t in zip(predicted, truths, strict=True):
-        hit = len(set(p) & t)
-        per_p.append(ratio(hit, len(set(p)), len(t)))
-        per_r.append(ratio(hit, len(t), len(set(p))))
-    avg_p, avg_r = sum(per_p) / len(per_p), sum(per_r) / len(per_r)
-    averaged = {
-        "precision": avg_p,
-        "recall": avg_r,
-        "f1": 2 * avg_p * avg_r / (avg_p + avg_r) if avg_p + avg_r else 0.0,
-    }
-    per_service = {}
-    for name in services:
-        tp = sum(1 for p, t in zip(predicted, truths, strict=True) if name in p and name in t)
-        fp = sum(1 for p, t in zip(predicted, truths, strict=True) if name in p and name not in t)
-        fn = sum(1 for p, t in zip(predicted, truths, strict=True) if name not in p and name in t)
-        prec = ratio(tp, tp + fp, fn)
-        rec = ratio(tp, tp + fn, fp)
-        per_service[name] = {
-            "support": tp + fn,
-            "precision": round(prec, 6),
-            "recall": round(rec, 6),
-            "f1": round(2 * prec * rec / (prec + rec) if prec + rec else 0.0, 6),
-        }
+    truths = [sorted(s.truth_for(p)) for s, p in zip(scenarios, predicted, strict=True)]
+    micro = metrics.scores(predicted, truths).as_dict()
+    averaged = metrics.averaged(predicted, truths)
+    per_service = metrics.per_service(predicted, truths, services)
     return MethodResult(
         micro=micro, averaged=averaged, per_service=per_service, seconds=seconds, predictions=predicted
     )

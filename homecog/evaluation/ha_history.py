@@ -35,8 +35,9 @@ from pathlib import Path
 from typing import Any
 
 from homecog.errors import ContextError, HomeAssistantError
+from homecog.home.clock import format_clock
 from homecog.home.home_assistant import NO_READING, DeviceEntity, FeatureEntity, feature_value, nearest
-from homecog.home.model import Home, format_clock
+from homecog.home.model import Home
 
 log = logging.getLogger(__name__)
 

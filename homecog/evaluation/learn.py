@@ -19,12 +19,12 @@ import numpy as np
 
 from homecog.errors import HomecogError
 from homecog.evaluation.methods import METHODS, HoeffdingMethod, KMeansMethod, Method, TreeMethod
+from homecog.home.codec import Space
 from homecog.home.encoding import context_index
 from homecog.home.model import Home
 from homecog.knowledge.ihdr import IHDRTree
 from homecog.knowledge.sample_log import SampleLog
 from homecog.knowledge.samples import SampleSet, draw_readings, policy_samples
-from homecog.knowledge.space import Space
 from homecog.learning.policy import Policy
 
 Progress = Callable[[str], None]

@@ -18,10 +18,10 @@ from typing import Any, Protocol
 
 import numpy as np
 
+from homecog.home.codec import Point, Space, finite_span
 from homecog.home.model import Home
 from homecog.knowledge.ihdr import IHDRTree
 from homecog.knowledge.samples import SampleSet
-from homecog.knowledge.space import Point, Space, finite_span
 
 METHODS = ("multi", "paper", "kmeans", "hoeffding")
 

@@ -16,7 +16,7 @@ from typing import Any
 from homecog.evaluation.evaluate import load_scenarios
 from homecog.evaluation.learn import learn_methods
 from homecog.evaluation.methods import METHODS, HoeffdingMethod, TreeMethod
-from homecog.evaluation.scenarios import ratio
+from homecog.evaluation.metrics import prf
 from homecog.home.model import Home
 from homecog.knowledge.pipeline import ensure_policy
 from homecog.learning.size import check_size
@@ -84,12 +84,12 @@ def replay(
             t[2] += len(row.truth)
             _learn(method, row.point, sorted(row.truth))
             if i % every == 0 or i == len(rows):
-                running[name].append((i, *_prf(t)))
+                running[name].append((i, *prf(*t)))
         if progress and i % 1000 == 0:
             progress(f"{i:,} of {len(rows):,} events")
     figures = {}
     for name, t in totals.items():
-        p, r, f = _prf(t)
+        p, r, f = prf(*t)
         figures[name] = {"precision": round(p, 6), "recall": round(r, 6), "f1": round(f, 6)}
     return ReplayResult(
         events=len(rows),
@@ -98,9 +98,3 @@ def replay(
         seconds=time.perf_counter() - start,
         skipped=learning.skipped,
     )
-
-
-def _prf(t: list[int]) -> tuple[float, float, float]:
-    p = ratio(t[0], t[1], t[2])
-    r = ratio(t[0], t[2], t[1])
-    return p, r, (2 * p * r / (p + r) if p + r else 0.0)

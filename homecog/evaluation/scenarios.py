@@ -9,8 +9,6 @@ it to the optimum under a truth home.
 >>> scenarios = random_scenarios(home, 3, seed=0)
 >>> len(scenarios), sorted(scenarios[0].context)[:3]
 (3, ['ac_bedroom', 'ac_living', 'behavior'])
->>> scores([["A", "B"]], [["A", "C"]])
-{'precision': 0.5, 'recall': 0.5, 'f1': 0.5, 'exact': 0.0}
 """
 
 from __future__ import annotations
@@ -20,8 +18,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from homecog.home.codec import Point, Space, finite_span
 from homecog.home.model import Home
-from homecog.knowledge.space import Point, Space, finite_span
 
 
 @dataclass(frozen=True)
@@ -92,27 +90,3 @@ def random_scenarios(home: Home, n: int, *, seed: int = 0, truth: Home | None = 
         truth_set, ambiguous = truth_of(judge, point)
         out.append(Scenario(context=context, point=point, truth=truth_set, choices=ambiguous))
     return out
-
-
-def ratio(hits: int, n: int, other: int) -> float:
-    """``hits / n``; where ``n`` is 0 the ratio is 1 if ``other`` is 0 too (nothing to find and
-    nothing said) and 0 otherwise: a method that never answers gets precision 0, not 1.
-
-    >>> ratio(3, 4, 5), ratio(0, 0, 0), ratio(0, 0, 7)
-    (0.75, 1.0, 0.0)
-    """
-    if n:
-        return hits / n
-    return 1.0 if other == 0 else 0.0
-
-
-def scores(predicted: Sequence[Sequence[str]], truth: Sequence[Sequence[str]]) -> dict[str, float]:
-    """Micro precision Σ|p∩t|/Σ|p|, recall Σ|p∩t|/Σ|t|, their F1, and the exact-match rate."""
-    hit = sum(len(set(p) & set(t)) for p, t in zip(predicted, truth, strict=True))
-    n_pred = sum(len(set(p)) for p in predicted)
-    n_true = sum(len(set(t)) for t in truth)
-    precision = ratio(hit, n_pred, n_true)
-    recall = ratio(hit, n_true, n_pred)
-    f1 = 2 * precision * recall / (precision + recall) if precision + recall else 0.0
-    exact = sum(set(p) == set(t) for p, t in zip(predicted, truth, strict=True)) / max(1, len(truth))
-    return {"precision": precision, "recall": recall, "f1": f1, "exact": exact}

@@ -41,7 +41,8 @@ from dataclasses import dataclass
 from typing import Any
 
 from homecog.errors import ContextError, HomeFileError
-from homecog.home.model import Device, Feature, format_clock, format_number, parse_clock
+from homecog.home.clock import format_clock, parse_clock
+from homecog.home.model import Device, Feature, format_number
 
 ENTITY_ID = re.compile(r"^[a-z0-9_]+\.[a-z0-9_]+$")
 SERVICE = re.compile(r"^[a-z0-9_]+\.[a-z0-9_]+$")

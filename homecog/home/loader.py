@@ -27,8 +27,8 @@ from typing import Any
 
 import yaml
 
-from homecog.context.routine import parse_routine
 from homecog.errors import HomeFileError
+from homecog.home.clock import clock_hours
 from homecog.home.home_assistant import parse_home_assistant
 from homecog.home.layout import parse_layout
 from homecog.home.model import (
@@ -41,6 +41,8 @@ from homecog.home.model import (
     Service,
     format_number,
 )
+from homecog.home.routine import parse_routine
+from homecog.home.states import STATE_WORDS
 
 BUILTIN_PACKAGE = "homecog.home.homes"
 _NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
@@ -60,7 +62,6 @@ _SECTIONS = (
 )
 _REQUIRED = ("name", "context", "devices", "services", "comfort")
 _KINDS = ("clock", "numeric", "categorical")
-_STATES = {"on": True, "off": False, "true": True, "false": False, "yes": True, "no": False}
 
 
 class _Loader(yaml.SafeLoader):
@@ -142,11 +143,11 @@ def load_home_text(text: str, source: str = "<home>") -> Home:
 
 
 def parse_device_state(value: object) -> bool | None:
-    """on/off, true/false or yes/no as a state; None when it is none of these."""
+    """A state in the one vocabulary (:mod:`homecog.home.states`); None when it is none of it."""
     if isinstance(value, bool):
         return value
     if isinstance(value, str):
-        return _STATES.get(value.strip().lower())
+        return STATE_WORDS.get(value.strip().lower())
     return None
 
 
@@ -210,11 +211,10 @@ class _Validator:
 
     def hours(self, value: object, path: str) -> float:
         if isinstance(value, str) and ":" in value:
-            parts = value.strip().split(":")
-            if len(parts) == 2 and all(p.isdigit() for p in parts) and int(parts[1]) < 60:
-                value = int(parts[0]) + int(parts[1]) / 60
-            else:
-                raise self.fail(path, f'expected hours (7.5 or "07:30"), got {value!r}')
+            try:
+                value = clock_hours(value)
+            except ValueError:
+                raise self.fail(path, f'expected hours (7.5 or "07:30"), got {value!r}') from None
         x = self.number(value, path)
         if not 0 <= x <= 24:
             raise self.fail(path, f"hour {format_number(x)} out of range; expected 0 to 24")

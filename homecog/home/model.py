@@ -22,7 +22,9 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Literal
 
 from homecog.errors import ContextError
+from homecog.home.clock import format_clock, parse_clock
 from homecog.home.layout import Layout
+from homecog.home.states import parse_state
 
 if TYPE_CHECKING:  # it imports this module
     from homecog.home.home_assistant import HomeAssistantMap
@@ -36,47 +38,6 @@ def format_number(x: float) -> str:
     if math.isinf(x):
         return "inf" if x > 0 else "-inf"
     return str(int(x)) if float(x).is_integer() else f"{x:g}"
-
-
-def format_clock(hours: float) -> str:
-    """Decimal hours as ``HH:MM``.
-
-    >>> format_clock(21.5)
-    '21:30'
-    """
-    minutes = round(hours * 60) % (24 * 60)
-    return f"{minutes // 60:02d}:{minutes % 60:02d}"
-
-
-def parse_clock(text: str | float | int) -> float:
-    """A time of day as decimal hours in [0, 24): ``"7:30"``, ``"07:30"``, ``7.5`` or ``"7.5"``.
-
-    >>> parse_clock("7:30"), parse_clock(22), parse_clock("24:00")
-    (7.5, 22.0, 0.0)
-    """
-    if isinstance(text, bool):
-        raise ValueError(f"not a time: {text!r}")
-    if isinstance(text, (int, float)):
-        hours = float(text)
-    else:
-        s = str(text).strip()
-        if ":" in s:
-            parts = s.split(":")
-            if len(parts) not in (2, 3) or not all(p.strip().isdigit() for p in parts):
-                raise ValueError(f"not a time: {text!r}; expected HH:MM or decimal hours")
-            h, m = int(parts[0]), int(parts[1])
-            sec = int(parts[2]) if len(parts) == 3 else 0
-            if m >= 60 or sec >= 60:
-                raise ValueError(f"not a time: {text!r}; minutes and seconds must be below 60")
-            hours = h + m / 60 + sec / 3600
-        else:
-            try:
-                hours = float(s)
-            except ValueError:
-                raise ValueError(f"not a time: {text!r}; expected HH:MM or decimal hours") from None
-    if not (0 <= hours <= 24) or math.isnan(hours):
-        raise ValueError(f"time {text!r} out of range; expected 00:00 to 24:00")
-    return hours % 24
 
 
 @dataclass(frozen=True)
@@ -395,33 +356,3 @@ class Home:
         codes = tuple(f.discretize(readings[f.name]) for f in self.features)
         states = tuple(parse_state(readings[d.name], d.name) for d in self.devices)
         return codes, states
-
-
-_STATE_WORDS = {
-    "on": True,
-    "off": False,
-    "true": True,
-    "false": False,
-    "yes": True,
-    "no": False,
-    "1": True,
-    "0": False,
-    "open": True,
-    "closed": False,
-}
-
-
-def parse_state(value: object, what: str = "device") -> bool:
-    """A device state from on/off (or true/false, yes/no, 1/0, open/closed).
-
-    >>> parse_state("on"), parse_state(False), parse_state("OFF")
-    (True, False, False)
-    """
-    if isinstance(value, bool):
-        return value
-    if isinstance(value, int) and value in (0, 1):
-        return bool(value)
-    word = str(value).strip().lower()
-    if word in _STATE_WORDS:
-        return _STATE_WORDS[word]
-    raise ContextError(f"{what}: unknown state {value!r}; expected on or off")

@@ -14,7 +14,7 @@ two same-label clusters one dimension away merge unless the union would cover an
 example.
 
 >>> from homecog.knowledge.model import Cluster
->>> from homecog.knowledge.space import Point
+>>> from homecog.home.codec import Point
 >>> layers = UserLayers(n_dims=3)
 >>> shared = [Cluster(id=1, conditions={0: frozenset({1}), 2: frozenset({0})})]
 >>> layers.add_example("ann", 4, Point((1, 0, 1), (None,) * 3), -1, shared, new_id=100)
@@ -28,8 +28,8 @@ from __future__ import annotations
 
 from collections.abc import Iterator
 
+from homecog.home.codec import Point
 from homecog.knowledge.model import Cluster, Condition, Numeric, covers
-from homecog.knowledge.space import Point
 
 
 class UserLayers:

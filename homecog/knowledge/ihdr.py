@@ -51,6 +51,7 @@ from typing import Any
 import numpy as np
 
 from homecog.errors import ContextError
+from homecog.home.codec import Point, Space
 from homecog.home.model import Home
 from homecog.knowledge.box_index import BoxIndex, distinct_rows, group_min_max
 from homecog.knowledge.corrections import UserLayers
@@ -63,7 +64,6 @@ from homecog.knowledge.model import (
     bits,
 )
 from homecog.knowledge.search import TreeSearch
-from homecog.knowledge.space import Point, Space
 from homecog.knowledge.state import NodeState, TreeState, signature
 from homecog.knowledge.update import ClusterUpdates
 

@@ -21,7 +21,7 @@ from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
-from homecog.knowledge.space import Point
+from homecog.home.codec import Point
 
 IDLE = "Idle"  # the pseudo-service whose clusters say "nothing is needed here"
 

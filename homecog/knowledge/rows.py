@@ -20,12 +20,12 @@ from typing import Any
 
 import numpy as np
 
+from homecog.home.codec import Space
 from homecog.home.model import Home
 from homecog.knowledge import sample_log
 from homecog.knowledge.model import Cluster, Numeric
 from homecog.knowledge.sample_log import SampleLog
 from homecog.knowledge.samples import SampleSet
-from homecog.knowledge.space import Space
 from homecog.knowledge.state import TreeState
 
 SAMPLES_PER_ROW = 32768  # samples per row in the format that keeps codes and readings

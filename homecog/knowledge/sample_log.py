@@ -21,10 +21,10 @@ from typing import Any
 
 import numpy as np
 
+from homecog.home.codec import Space
 from homecog.home.groups import device_groups, project
 from homecog.home.model import Home
 from homecog.knowledge.samples import SampleSet, code_dtype, draw_readings, start_codes
-from homecog.knowledge.space import Space
 
 FORMAT = 2
 ROWS_PER_PART = 1 << 17

@@ -51,9 +51,9 @@ import numba
 import numpy as np
 
 from homecog.environment.core import Core, Tables, apply, argmax_row, distance
+from homecog.home.codec import Point, Space, finite_span
 from homecog.home.groups import project
 from homecog.home.model import Home
-from homecog.knowledge.space import Point, Space, finite_span
 from homecog.learning.policy import Policy
 
 _jit = numba.njit(cache=True, nogil=True)

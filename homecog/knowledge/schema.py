@@ -5,18 +5,19 @@
 - ``nodes``: rows with a parent (root, categories, services);
 - ``clusters``: conditions as JSON, ``user`` NULL for the shared tree, else the user's layer;
 - ``users``: a row per household member, the lock their corrections take, a version;
-- ``experiences``: the append-only log of sample batches, single samples and corrections.
+- ``experiences``: the append-only log of sample batches, single samples and corrections,
+  indexed by (kind, user, id) for counts and the history of corrections.
 """
 
 from __future__ import annotations
 
 from datetime import datetime
 
-from sqlalchemy import BigInteger, DateTime, Double, ForeignKey, Integer, LargeBinary, String, Text
+from sqlalchemy import BigInteger, DateTime, Double, ForeignKey, Index, Integer, LargeBinary, String, Text
 from sqlalchemy.dialects import mysql
 from sqlalchemy.orm import DeclarativeBase, Mapped, mapped_column
 
-SCHEMA_VERSION = "0001"
+SCHEMA_VERSION = "0002"
 _LongBlob = LargeBinary().with_variant(mysql.LONGBLOB(), "mysql", "mariadb")
 _LongText = Text().with_variant(mysql.LONGTEXT(), "mysql", "mariadb")
 
@@ -79,6 +80,7 @@ class ExperienceRow(Base):
     """The append-only experience log: sample batches, single samples and corrections."""
 
     __tablename__ = "experiences"
+    __table_args__ = (Index("ix_experiences_kind_user_id", "kind", "user", "id"),)  # migration 0002
     id: Mapped[int] = mapped_column(Integer, primary_key=True, autoincrement=True)
     kind: Mapped[str] = mapped_column(String(16))
     user: Mapped[str | None] = mapped_column(String(200), nullable=True)

@@ -16,17 +16,18 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from homecog.home.model import format_clock, format_number
+from homecog.home.clock import format_clock
+from homecog.home.codec import Point
+from homecog.home.model import format_number
 from homecog.knowledge.group_index import LIMIT_BYTES as GROUP_INDEX_BYTES
 from homecog.knowledge.group_index import GroupIndex
 from homecog.knowledge.model import Cluster, Cognition, Condition, Explanation, Node, Numeric
-from homecog.knowledge.space import Point
 
 if TYPE_CHECKING:
+    from homecog.home.codec import Space
     from homecog.home.model import Home
     from homecog.knowledge.box_index import BoxIndex
     from homecog.knowledge.corrections import UserLayers
-    from homecog.knowledge.space import Space
 
 
 class TreeSearch:

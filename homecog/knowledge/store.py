@@ -29,6 +29,7 @@ from sqlalchemy.engine import Connection
 from sqlalchemy.exc import DBAPIError, OperationalError, SQLAlchemyError
 
 from homecog.errors import StoreError
+from homecog.home.codec import Point
 from homecog.home.model import Home
 from homecog.knowledge import sample_log
 from homecog.knowledge.database import (
@@ -52,7 +53,6 @@ from homecog.knowledge.rows import (
 from homecog.knowledge.sample_log import SampleLog
 from homecog.knowledge.samples import SampleSet
 from homecog.knowledge.schema import Base, ClusterRow, ExperienceRow, HomeRow, NodeRow, UserRow
-from homecog.knowledge.space import Point
 from homecog.knowledge.state import NodeState, TreeState
 
 __all__ = ["Store", "StoreError", "default_url", "redact"]

@@ -16,8 +16,8 @@ from typing import TYPE_CHECKING, Any
 from homecog.knowledge.model import Cluster, Condition, Node, Numeric, bits, box_size
 
 if TYPE_CHECKING:
+    from homecog.home.codec import Space
     from homecog.knowledge.box_index import BoxIndex
-    from homecog.knowledge.space import Space
 
 
 class ClusterUpdates:

@@ -28,7 +28,7 @@ import os
 import time
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
@@ -37,7 +37,7 @@ from homecog.home.groups import Group, device_groups, project
 from homecog.home.model import Home
 from homecog.learning.policy import Policy, round_q
 from homecog.learning.qtable import QTable
-from homecog.learning.sarsa import SarsaConfig, run_episodes, seed_rng, train
+from homecog.learning.sarsa import RunFigures, SarsaConfig, run_episodes, seed_rng, train
 from homecog.learning.size import check_size
 
 MIN_SWEEPS = 2
@@ -45,18 +45,10 @@ MAX_SWEEPS = 64
 
 
 @dataclass
-class PolicyResult:
-    """What a run reports (SPEC §11 keys) and the policy it made."""
+class PolicyResult(RunFigures):
+    """A run's figures and the policy it made."""
 
-    policy: Policy
-    episodes: int
-    steps: int
-    seconds: float
-    greedy_optimal_rate: float
-
-    @property
-    def steps_per_second(self) -> float:
-        return self.steps / self.seconds if self.seconds > 0 else 0.0
+    policy: Policy = field(kw_only=True)
 
 
 @dataclass
@@ -157,7 +149,9 @@ def train_policy(
         result = train(home, config, progress=progress)
         policy = Policy.joint_from(home, result.q_table)
         policy.seconds = result.seconds
-        return PolicyResult(policy, result.episodes, result.steps, result.seconds, result.greedy_optimal_rate)
+        return PolicyResult(
+            result.episodes, result.steps, result.seconds, result.greedy_optimal_rate, policy=policy
+        )
 
     groups = device_groups(home)
     budgets = _budgets(home, groups, episodes)

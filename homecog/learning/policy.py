@@ -15,8 +15,6 @@ float16 (see :func:`round_q`); the joint table keeps float32 and its tried marks
 from __future__ import annotations
 
 import json
-import os
-import tempfile
 import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -28,6 +26,7 @@ from homecog.errors import QTableError
 from homecog.home.groups import Group, device_groups, whole
 from homecog.home.model import Home
 from homecog.learning.qtable import QTable
+from homecog.paths import atomic_write, reading
 
 FORMAT = 2
 
@@ -116,59 +115,34 @@ class Policy:
                 for g, t in zip(self.groups, self.tables, strict=True)
             ],
         }
-        try:
-            path.parent.mkdir(parents=True, exist_ok=True)
-            fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-        except OSError as e:
-            raise QTableError(f"{path}: cannot write: {e.strerror}") from None
-        try:
-            with (
-                os.fdopen(fd, "wb") as f,
-                zipfile.ZipFile(f, "w", zipfile.ZIP_DEFLATED, compresslevel=1) as z,
-            ):
-                _write(z, "meta", np.array(json.dumps(meta)))
-                for i, t in enumerate(self.tables):
-                    _write(z, f"q{i}", t.q if self.joint else t.q.astype(np.float16))
-                    if self.joint:
-                        _write(z, f"tried{i}", t.tried)
-            umask = os.umask(0)
-            os.umask(umask)
-            os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes it private; a Q table is not secret
-            os.replace(tmp, path)
-        except OSError as e:
-            Path(tmp).unlink(missing_ok=True)
-            raise QTableError(f"{path}: cannot write: {e.strerror}") from None
-        except BaseException:
-            Path(tmp).unlink(missing_ok=True)
-            raise
+        with (
+            atomic_write(path, QTableError) as f,
+            zipfile.ZipFile(f, "w", zipfile.ZIP_DEFLATED, compresslevel=1) as z,
+        ):
+            _write(z, "meta", np.array(json.dumps(meta)))
+            for i, t in enumerate(self.tables):
+                _write(z, f"q{i}", t.q if self.joint else t.q.astype(np.float16))
+                if self.joint:
+                    _write(z, f"tried{i}", t.tried)
         return path
 
     @classmethod
     def load(cls, path: str | Path, home: Home) -> Policy:
         """Read a policy (or a joint Q table of the earlier format) made for ``home``."""
         path = Path(path)
-        try:
-            with np.load(path, allow_pickle=False) as data:
-                meta = json.loads(str(data["meta"]))
-                if meta.get("format") == 1:
-                    return cls.joint_from(home, QTable.load(path, home))
-                if meta.get("format") != FORMAT:
-                    raise QTableError(f"{path}: not a homecog Q table (format {meta.get('format')!r})")
-                policy = cls._from_meta(meta, home, path)
-                for i, (g, t) in enumerate(zip(policy.groups, policy.tables, strict=True)):
-                    t.q = data[f"q{i}"]
-                    if policy.joint:
-                        t.tried = data[f"tried{i}"]
-                    if t.q.ndim != 2 or t.q.shape[1] != len(g.services):
-                        raise QTableError(f"{path}: not a homecog Q table (group {i} has the wrong shape)")
-        except FileNotFoundError:
-            raise QTableError(f"{path}: no such file") from None
-        except IsADirectoryError:
-            raise QTableError(f"{path}: is a directory, not a Q table") from None
-        except PermissionError:
-            raise QTableError(f"{path}: cannot read: permission denied") from None
-        except (OSError, EOFError, ValueError, KeyError, zipfile.BadZipFile, json.JSONDecodeError):
-            raise QTableError(f"{path}: not a homecog Q table") from None
+        with reading(path, QTableError, "a homecog Q table"), np.load(path, allow_pickle=False) as data:
+            meta = json.loads(str(data["meta"]))
+            if meta.get("format") == 1:
+                return cls.joint_from(home, QTable.load(path, home))
+            if meta.get("format") != FORMAT:
+                raise QTableError(f"{path}: not a homecog Q table (format {meta.get('format')!r})")
+            policy = cls._from_meta(meta, home, path)
+            for i, (g, t) in enumerate(zip(policy.groups, policy.tables, strict=True)):
+                t.q = data[f"q{i}"]
+                if policy.joint:
+                    t.tried = data[f"tried{i}"]
+                if t.q.ndim != 2 or t.q.shape[1] != len(g.services):
+                    raise QTableError(f"{path}: not a homecog Q table (group {i} has the wrong shape)")
         return policy
 
     @classmethod

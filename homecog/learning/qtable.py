@@ -8,9 +8,6 @@ failed or interrupted save leaves the previous file as it was.
 from __future__ import annotations
 
 import json
-import os
-import tempfile
-import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -19,6 +16,7 @@ import numpy as np
 
 from homecog.errors import QTableError
 from homecog.home.model import Home
+from homecog.paths import atomic_write, reading
 
 if TYPE_CHECKING:
     from homecog.environment.core import Core
@@ -77,43 +75,18 @@ class QTable:
             "config": self.config,
             "rng": int(self.rng[0]),
         }
-        try:
-            path.parent.mkdir(parents=True, exist_ok=True)
-            fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-        except OSError as e:
-            raise QTableError(f"{path}: cannot write: {e.strerror}") from None
-        try:
-            with os.fdopen(fd, "wb") as f:
-                np.savez_compressed(f, q=self.q, tried=self.tried, meta=np.array(json.dumps(meta)))
-            umask = os.umask(0)
-            os.umask(umask)
-            os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes it private; a Q table is not secret
-            os.replace(tmp, path)
-        except OSError as e:
-            Path(tmp).unlink(missing_ok=True)
-            raise QTableError(f"{path}: cannot write: {e.strerror}") from None
-        except BaseException:
-            Path(tmp).unlink(missing_ok=True)
-            raise
+        with atomic_write(path, QTableError) as f:
+            np.savez_compressed(f, q=self.q, tried=self.tried, meta=np.array(json.dumps(meta)))
         return path
 
     @classmethod
     def load(cls, path: str | Path, home: Home | None = None) -> QTable:
         """Read a table; with ``home``, refuse it unless it was made for that home."""
         path = Path(path)
-        try:
-            with np.load(path, allow_pickle=False) as data:
-                meta = json.loads(str(data["meta"]))
-                q = data["q"]
-                tried = data["tried"]
-        except FileNotFoundError:
-            raise QTableError(f"{path}: no such file") from None
-        except IsADirectoryError:
-            raise QTableError(f"{path}: is a directory, not a Q table") from None
-        except PermissionError:
-            raise QTableError(f"{path}: cannot read: permission denied") from None
-        except (OSError, EOFError, ValueError, KeyError, zipfile.BadZipFile, json.JSONDecodeError):
-            raise QTableError(f"{path}: not a homecog Q table") from None
+        with reading(path, QTableError, "a homecog Q table"), np.load(path, allow_pickle=False) as data:
+            meta = json.loads(str(data["meta"]))
+            q = data["q"]
+            tried = data["tried"]
         if meta.get("format") != FORMAT or q.ndim != 2 or tried.shape[0] != q.shape[0]:
             raise QTableError(f"{path}: not a homecog Q table (format {meta.get('format')!r})")
         table = cls(

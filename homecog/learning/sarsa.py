@@ -25,7 +25,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, field
 
 import numba
 import numpy as np
@@ -232,10 +232,9 @@ def seed_rng(seed: int) -> np.ndarray:
 
 # -- the trainer ---------------------------------------------------------------------------
 @dataclass
-class TrainResult:
-    """What a run reports (SPEC §11 keys) and the Q table it made."""
+class RunFigures:
+    """What a training run reports (SPEC §11 keys)."""
 
-    q_table: QTable
     episodes: int
     steps: int
     seconds: float
@@ -244,6 +243,13 @@ class TrainResult:
     @property
     def steps_per_second(self) -> float:
         return self.steps / self.seconds if self.seconds > 0 else 0.0
+
+
+@dataclass
+class TrainResult(RunFigures):
+    """A joint run's figures and the Q table it made."""
+
+    q_table: QTable = field(kw_only=True)
 
 
 def greedy_optimal_rate(core: Core, q: np.ndarray) -> float:

@@ -1,5 +1,6 @@
-"""The running robot behind the web interface: the home, its knowledge, a context source, and
-what happened (corrections, agreement), shared by the HTTP routes.
+"""The running robot behind the web interface: the home, its knowledge and a context source,
+shared by the HTTP routes. What happened (corrections, agreement) is read from the store's
+experience log (:mod:`homecog.knowledge.history`), so it outlives the process.
 
 >>> from homecog.home import load_home
 >>> source = ManualSource(load_home("paper"))
@@ -11,23 +12,27 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
-import json
 import logging
 import threading
-import time
-from collections import deque
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
+import numpy as np
 import orjson
 
 from homecog.context import ContextSource
-from homecog.errors import ContextError
-from homecog.home.model import Home, format_clock, format_number
+from homecog.errors import ContextError, HomecogError
+from homecog.home.clock import format_clock
+from homecog.home.codec import Space, parse_services
+from homecog.home.model import Home, format_number
 from homecog.knowledge.ihdr import IHDRTree
-from homecog.knowledge.space import Space, parse_services
 from homecog.knowledge.store import Store
+from homecog.web.models import json_context
+
+
+class FixedContextError(HomecogError):
+    """The context comes from a source that cannot be set by hand (a broker)."""
 
 
 class ManualSource:
@@ -61,23 +66,6 @@ class ManualSource:
 
 
 @dataclass
-class Correction:
-    """One correction as the history shows it."""
-
-    at: float
-    user: str
-    context: dict[str, str]
-    want: list[str]
-    predicted: list[str]
-    added: list[str]
-    rejected: list[str]
-
-    @property
-    def agreed(self) -> bool:
-        return set(self.want) == set(self.predicted)
-
-
-@dataclass
 class Runtime:
     """Everything the routes share. Cognition and corrections hold ``lock``: the tree is not
     thread-safe, FastAPI runs plain route functions (corrections) in a thread pool, and
@@ -87,11 +75,9 @@ class Runtime:
     store: Store
     tree: IHDRTree
     source: ContextSource
-    token: str | None = None
     lock: threading.Lock = field(default_factory=threading.Lock)
-    history: deque[Correction] = field(default_factory=lambda: deque(maxlen=500))
     watchers: list[Callable[[dict[str, str]], object]] = field(default_factory=list)
-    _subscribers: set[asyncio.Queue[str]] = field(default_factory=set)
+    _subscribers: set[asyncio.Queue[tuple[str, object]]] = field(default_factory=set)
     _sent: dict[str, tuple[dict[str, str], str]] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
@@ -99,23 +85,31 @@ class Runtime:
 
     # -- context ------------------------------------------------------------------------------
     def context(self) -> dict[str, str]:
+        """The context as the source has it, as text; :class:`ContextError` while a broker has not
+        sent every state yet."""
         return self.source.snapshot()
 
-    def set_context(self, values: Mapping[str, object]) -> dict[str, str]:
-        """Manual mode: change some features or devices; the whole result must be valid."""
+    def json_context(self) -> dict[str, str | float]:
+        """The context as the HTTP contract writes it (numbers as numbers)."""
+        return json_context(self.home, self.context())
+
+    def set_context(self, values: Mapping[str, object]) -> dict[str, str | float]:
+        """Manual mode: change some features or devices (valid values, as the contract checks
+        them); :class:`FixedContextError` when the source cannot be set by hand."""
+        setter = getattr(self.source, "set_context", None)
+        if setter is None:
+            raise FixedContextError("the context comes from a broker; it cannot be set by hand")
         unknown = [k for k in values if k not in self.space.names]
         if unknown:
             raise ContextError(f"unknown feature or device {unknown[0]!r}")
-        merged = {**self.source.snapshot(), **{k: str(v) for k, v in values.items()}}
-        self.space.point(merged)  # raises ContextError naming what is wrong
-        setter = getattr(self.source, "set_context", None)
-        if setter is None:
-            raise ContextError("the context comes from the simulator or a broker; it cannot be set by hand")
-        setter(values)
+        typed = json_context(self.home, values)  # raises naming a value that does not fit
+        text = {k: format_number(v) if isinstance(v, float) else v for k, v in typed.items()}
+        self.space.point({**self.source.snapshot(), **text})  # the whole result must be valid
+        setter(text)
         self.publish("context", self.context())
-        return self.context()
+        return self.json_context()
 
-    # -- cognition and corrections -------------------------------------------------------------
+    # -- cognition, corrections, plans ---------------------------------------------------------
     def cognize(self, context: Mapping[str, object], user: str) -> dict[str, Any]:
         point = self.space.point(context)
         with self.lock:
@@ -129,34 +123,33 @@ class Runtime:
         return orjson.dumps(answer)
 
     def correct(self, context: Mapping[str, object], want: list[str], user: str) -> dict[str, Any]:
+        """Learn and store a correction; the store's log keeps it (and the history with it)."""
         point = self.space.point(context)
         wanted = parse_services(want, self.home)
         with self.lock:
-            predicted = self.tree.predict_one(point, user=user)
             added, rejected = self.store.correct(self.tree, point, wanted, user)
-            experiences = self.store.experience_count()
-        correction = Correction(
-            at=time.time(),
-            user=user,
-            context=self.space.context(point),
-            want=wanted,
-            predicted=predicted,
-            added=added,
-            rejected=rejected,
-        )
-        self.history.append(correction)
+        experiences = self.store.experience_count()  # outside the lock: cognition need not wait
         self.publish("correction", {"user": user, "want": wanted, "added": added, "rejected": rejected})
         return {"added": added, "rejected": rejected, "experiences": experiences, "user": user}
 
-    def agreement(self, user: str | None = None) -> list[dict[str, Any]]:
-        """Per correction in order: whether the robot had already proposed what the user wanted,
-        and the running rate of that agreement."""
-        out, agreed = [], 0
-        rows = [c for c in self.history if user is None or c.user == user]
-        for i, c in enumerate(rows, start=1):
-            agreed += c.agreed
-            out.append({"n": i, "user": c.user, "agreed": c.agreed, "rate": agreed / i})
-        return out
+    def plan(self, services: list[str], context: Mapping[str, object] | None) -> dict[str, Any]:
+        """The services decomposed into robot actions, in the given order, and the plan carried
+        out by the simulated robot on the floor plan: its timeline, time, distance and
+        trajectory (``[t, x, y]`` rows, at most 400). :class:`PlanningError` when it cannot be."""
+        from homecog.planning import plan_services
+        from homecog.simulation import simulate
+
+        where = dict(self.space.context(self.space.point(context))) if context else None
+        result = plan_services(self.home, services, context=where)
+        sim = simulate(self.home, result.actions, state=result.start)
+        simulation = sim.as_dict()
+        del simulation["actions"]  # the same as the plan's
+        simulation["trajectory"] = _thin(sim.trajectory, 400)
+        return {
+            "actions": [list(a) for a in result.actions],
+            "tree": [n.as_dict() for n in result.tree],
+            "simulation": simulation,
+        }
 
     # -- the living home ------------------------------------------------------------------------
     def tick(self, seconds: float, *, act: bool = True, user: str = "default") -> bool:
@@ -187,14 +180,15 @@ class Runtime:
         return after != before
 
     # -- the live event stream -----------------------------------------------------------------
-    def subscribe(self) -> asyncio.Queue[str]:
-        """A queue of server-sent events; call from the event loop."""
+    def subscribe(self) -> asyncio.Queue[tuple[str, object]]:
+        """A queue of events ``(kind, data)`` for a server-sent event stream; call from the event
+        loop."""
         self._loop = asyncio.get_running_loop()
-        queue: asyncio.Queue[str] = asyncio.Queue(maxsize=100)
+        queue: asyncio.Queue[tuple[str, object]] = asyncio.Queue(maxsize=100)
         self._subscribers.add(queue)
         return queue
 
-    def unsubscribe(self, queue: asyncio.Queue[str]) -> None:
+    def unsubscribe(self, queue: asyncio.Queue[tuple[str, object]]) -> None:
         self._subscribers.discard(queue)
 
     def switch(self, device: str, on: bool) -> None:
@@ -214,13 +208,29 @@ class Runtime:
         loop = getattr(self, "_loop", None)
         if loop is None or loop.is_closed() or not self._subscribers:
             return
-        message = f"event: {kind}\ndata: {json.dumps(data)}\n\n"
-        loop.call_soon_threadsafe(self._deliver, message)
+        if kind == "context":
+            try:
+                data = json_context(self.home, data)  # type: ignore[arg-type]
+            except (ContextError, ValueError):
+                logging.getLogger("homecog.web").exception("a context that does not fit the home")
+                return
+        loop.call_soon_threadsafe(self._deliver, (kind, data))
 
-    def _deliver(self, message: str) -> None:
+    def _deliver(self, message: tuple[str, object]) -> None:
         for queue in list(self._subscribers):
             if queue.full():
                 with contextlib.suppress(asyncio.QueueEmpty):
                     queue.get_nowait()
             with contextlib.suppress(asyncio.QueueFull):
                 queue.put_nowait(message)
+
+
+def _thin(trajectory: np.ndarray, most: int) -> list[list[float]]:
+    """At most ``most`` rows ``[t, x, y]`` of a trajectory, evenly spaced, first and last kept.
+
+    >>> _thin(np.array([[t, t, 0, 0] for t in range(10)], dtype=float), 4)
+    [[0.0, 0.0, 0.0], [3.0, 3.0, 0.0], [6.0, 6.0, 0.0], [9.0, 9.0, 0.0]]
+    """
+    n = len(trajectory)
+    keep = np.unique(np.linspace(0, n - 1, min(n, most)).round().astype(int)) if n else []
+    return [[round(float(t), 2), round(float(x), 3), round(float(y), 3)] for t, x, y, *_ in trajectory[keep]]

@@ -1,9 +1,11 @@
-"""The input space of the knowledge tree: the context features followed by the devices.
+"""The context codec: a context as people write it, as every stage reads it, and back.
 
-A context as people write it (``{"time": "7:00", "temperature": 25, ..., "window": "off"}``)
-becomes a :class:`Point`: one discrete code per dimension (a feature's bin or value, a
-device's 0/1) and the raw numeric readings, which the paper's clusters keep as mean ±
-range (Table 6).
+The space of a home is its context features followed by its devices (the knowledge tree's
+input space, the paper's Table 5). A context as people write it (``{"time": "7:00",
+"temperature": 25, ..., "window": "off"}``) becomes a :class:`Point`: one discrete code per
+dimension (a feature's bin or value, a device's 0/1) and the raw numeric readings, which the
+paper's clusters keep as mean ± range (Table 6). :func:`normalize` writes one value as the
+context writes it (MQTT payloads, values set by hand, Home Assistant states).
 
 >>> from homecog.home import load_home
 >>> space = Space(load_home("paper"))
@@ -26,7 +28,9 @@ from dataclasses import dataclass
 from typing import Any
 
 from homecog.errors import ContextError
-from homecog.home.model import Feature, Home, format_clock, format_number
+from homecog.home.clock import format_clock, parse_clock
+from homecog.home.model import Feature, Home, format_number
+from homecog.home.states import STATE_WORDS, parse_state
 
 
 @dataclass(frozen=True)
@@ -62,20 +66,7 @@ class Space:
         self.index = {name: i for i, name in enumerate(self.names)}
         self.n_features = len(home.features)
         self._parsers = [self._parser(f) for f in home.features]
-        states = {
-            "on": 1,
-            "off": 0,
-            "true": 1,
-            "false": 0,
-            "yes": 1,
-            "no": 0,
-            "1": 1,
-            "0": 0,
-            True: 1,
-            False: 0,
-            "open": 1,
-            "closed": 0,
-        }
+        states: dict[object, int] = {w: int(on) for w, on in STATE_WORDS.items()} | {True: 1, False: 0}
         self._parsers += [(d.name, "device", states) for d in home.devices]
 
     @staticmethod
@@ -130,17 +121,12 @@ class Space:
                 codes.append(lookup[value if isinstance(value, bool) else str(value).lower()])
                 readings.append(None)
             else:
-                if kind == "clock" and isinstance(value, str):
-                    h, _, m = value.partition(":")
-                    x = int(h) + (int(m) / 60 if m else 0.0) if m else float(h)
-                    if not (0 <= x <= 24 and (not m or int(m) < 60)):
-                        raise ValueError(value)
-                    x %= 24
+                if kind == "clock":  # the home's one clock parser, so both read a time alike
+                    x = parse_clock(value)  # type: ignore[arg-type]
                 else:
                     x = float(value)  # type: ignore[arg-type]
-                    if isinstance(value, bool) or x != x or (kind == "clock" and not 0 <= x <= 24):
+                    if isinstance(value, bool) or x != x:
                         raise ValueError(value)
-                    x = x % 24 if kind == "clock" else x
                 edges, order = lookup
                 k = order[bisect.bisect_right(edges, x) - 1]
                 if k < 0:
@@ -231,3 +217,28 @@ def finite_span(bins: tuple[tuple[float, float], ...]) -> tuple[float, ...]:
             high = low + width
         out.extend([low, high])
     return tuple(out)
+
+
+def normalize(home: Home, name: str, value: object) -> str:
+    """One value of a feature or device as the context writes it: a clock ``HH:MM``, a number
+    without trailing zeros, a category, ``on``/``off``; ContextError naming what does not fit.
+
+    >>> from homecog.home import load_home
+    >>> home = load_home("paper")
+    >>> normalize(home, "time", "7:30"), normalize(home, "temperature", "25.0"), normalize(home, "lamp", "ON")
+    ('07:30', '25', 'on')
+    """
+    for f in home.features:
+        if f.name == name:
+            f.discretize(value)  # raises naming the feature when the value fits no bin
+            parsed = f.parse(value)
+            if f.kind == "clock":
+                return format_clock(float(parsed))
+            if f.kind == "numeric":
+                return format_number(float(parsed))
+            return str(parsed)
+    if name in home.device_names:
+        return "on" if parse_state(value, name) else "off"
+    raise ContextError(
+        f"unknown feature or device {name!r}; expected {', '.join(home.feature_names + home.device_names)}"
+    )

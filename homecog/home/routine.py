@@ -33,11 +33,11 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 from homecog.errors import HomeFileError
+from homecog.home.clock import clock_hours
+from homecog.home.states import STATE_WORDS
 
 if TYPE_CHECKING:  # homecog.home imports this module while it loads
     from homecog.home.model import Device, Feature
-
-_STATES = {"on": True, "off": False, "true": True, "false": False, "yes": True, "no": False}
 
 
 @dataclass(frozen=True)
@@ -85,22 +85,10 @@ def _fail(path: str, message: str) -> HomeFileError:
 
 
 def _hours(value: object, path: str, fail: Callable[[str, str], HomeFileError]) -> float:
-    if isinstance(value, bool):
-        raise fail(path, f'expected a time "HH:MM", got {value!r}')
-    if isinstance(value, (int, float)):
-        hours = float(value)
-    elif isinstance(value, str):
-        text = value.strip()
-        parts = text.split(":")
-        if len(parts) == 2 and all(p.isdigit() for p in parts) and int(parts[1]) < 60:
-            hours = int(parts[0]) + int(parts[1]) / 60
-        else:
-            try:
-                hours = float(text)
-            except ValueError:
-                raise fail(path, f'expected a time "HH:MM", got {value!r}') from None
-    else:
-        raise fail(path, f'expected a time "HH:MM", got {value!r}')
+    try:
+        hours = clock_hours(value)  # type: ignore[arg-type]
+    except (ValueError, TypeError):
+        raise fail(path, f'expected a time "HH:MM", got {value!r}') from None
     if not 0 <= hours < 24:
         raise fail(path, f"time {value!r} out of range; expected 00:00 to 23:59")
     return hours
@@ -188,7 +176,7 @@ def _sets(
             raise fail(f"{path}.{device}", f"unknown device; expected one of {', '.join(devices)}")
         word: Any = state
         if isinstance(word, str):
-            word = _STATES.get(word.strip().lower())
+            word = STATE_WORDS.get(word.strip().lower())
         if not isinstance(word, bool):
             raise fail(f"{path}.{device}", f"unknown state {state!r}; expected on or off")
         out[device] = word

@@ -1,0 +1,168 @@
+"""``homecog eval``, ``homecog replay`` and ``homecog adapt-mit``: quality on scenarios, learning
+from event streams, real data (SPEC §9, §11)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from homecog.cli.options import (
+    DbOption,
+    HomeOption,
+    JsonOption,
+    UsageProblemError,
+    check_writable,
+    method_names,
+    status,
+)
+from homecog.cli.output import emit_json, stdout
+from homecog.cli.render import eval_table, replay_table
+from homecog.home import load_home
+
+
+# -- homecog eval -------------------------------------------------------------------------------
+def eval_command(
+    home: HomeOption = "paper",
+    truth: Annotated[
+        str | None, typer.Option(help="The home whose wishes are the ground truth (default: the same home).")
+    ] = None,
+    scenarios: Annotated[
+        str, typer.Option(help="A number of random scenarios, or a scenario CSV file.")
+    ] = "2000",
+    corrections: Annotated[
+        int,
+        typer.Option(min=0, help="Corrections by a simulated user (the truth home), with a learning curve."),
+    ] = 0,
+    seed: Annotated[int, typer.Option(min=0, help="Seed of the scenarios and samples.")] = 0,
+    methods: Annotated[str, typer.Option(help="Methods, comma-separated.")] = "multi,paper,kmeans,hoeffding",
+    report: Annotated[
+        Path | None, typer.Option(help="Write a Markdown report with charts into this folder.")
+    ] = None,
+    db: DbOption = None,
+    joint: Annotated[
+        bool, typer.Option("--joint", help="Learn from the paper's joint Q table (small homes only).")
+    ] = False,
+    json: JsonOption = False,
+) -> None:
+    """Precision, recall and F1 of every method on scenarios; with --corrections, how the robot develops."""
+    from homecog.evaluation.evaluate import run as run_eval
+
+    h = load_home(home)
+    t = load_home(truth) if truth else h
+    names = method_names(methods)
+    if scenarios.strip().isdigit():
+        cases: int | Path = int(scenarios)
+        if cases < 1:
+            raise UsageProblemError(f"--scenarios must be at least 1, got {cases}")
+    else:
+        cases = Path(scenarios)
+        if not cases.is_file():
+            raise UsageProblemError(f"--scenarios {scenarios}: no such file (give a number or a CSV file)")
+    if report is not None:
+        check_writable(report / "report.md")
+    result = run_eval(
+        h,
+        t,
+        scenarios=cases,
+        seed=seed,
+        methods=names,
+        corrections=corrections,
+        db=db,
+        joint=joint,
+        progress=status,
+    )
+    data = result.as_dict()
+    if report is not None:
+        from homecog.evaluation.report import write_report
+
+        data["report"] = str(write_report(data, report))
+    if json:
+        emit_json(data)
+        return
+    stdout.print(eval_table(result, h.name, t.name))
+    for name, why in result.skipped.items():
+        stdout.print(f"{name}: {why}")
+    if result.curve:
+        stdout.print(
+            "corrections → F1: " + ", ".join(f"{c['corrections']}: {c['f1']:.3f}" for c in result.curve)
+        )
+    if report is not None:
+        stdout.print(f"report: {data['report']}")
+
+
+def replay(
+    events: Annotated[
+        Path,
+        typer.Option(
+            "--events",
+            help="An event CSV file: timestamp, then every feature and device, and optionally services.",
+        ),
+    ],
+    home: HomeOption = "paper",
+    methods: Annotated[str, typer.Option(help="Methods, comma-separated.")] = "multi,paper,kmeans,hoeffding",
+    seed: Annotated[int, typer.Option(min=0, help="Seed of the samples the methods start from.")] = 0,
+    report: Annotated[
+        Path | None, typer.Option(help="Write a Markdown report with the running figures into this folder.")
+    ] = None,
+    joint: Annotated[
+        bool, typer.Option("--joint", help="Start from the paper's joint Q table (small homes only).")
+    ] = False,
+    json: JsonOption = False,
+) -> None:
+    """Prequential evaluation: every method predicts each event, then learns it."""
+    from homecog.evaluation.replay import replay as run_replay
+    from homecog.evaluation.report import write_replay_report
+
+    h = load_home(home)
+    names = method_names(methods)
+    if not events.is_file():
+        raise UsageProblemError(f"--events {events}: no such file")
+    if report is not None:
+        check_writable(report / "replay.md")
+    result = run_replay(h, events, methods=names, seed=seed, joint=joint, progress=status)
+    data = result.as_dict()
+    if report is not None:
+        data["report"] = str(write_replay_report(data, report, f"{events.name} on {h.name}"))
+    if json:
+        data.pop("running")
+        emit_json(data)
+        return
+    stdout.print(replay_table(result, events.name))
+    for name, why in result.skipped.items():
+        stdout.print(f"{name}: {why}")
+    if report is not None:
+        stdout.print(f"report: {data['report']}")
+
+
+def adapt_mit(
+    folder: Annotated[Path, typer.Argument(help="A subject's folder of the MIT home-activity data.")],
+    out: Annotated[Path, typer.Option(help="Where to write the home file and the event file.")] = Path("."),
+    name: Annotated[str | None, typer.Option(help="The home's name (default mit_<folder>).")] = None,
+    json: JsonOption = False,
+) -> None:
+    """Turn the MIT home-activity data of one subject into a home file and an event file."""
+    from homecog.evaluation.mit import convert
+
+    if not folder.is_dir():
+        raise UsageProblemError(f"{folder}: not a folder")
+    check_writable(out / ".probe")
+    home_path, events_path, n = convert(folder, out, name)
+    h = load_home(home_path)  # what it wrote must load
+    data = {
+        "home": str(home_path),
+        "events": str(events_path),
+        "rows": n,
+        "name": h.name,
+        "devices": len(h.devices),
+        "contexts": h.context_count,
+    }
+    if json:
+        emit_json(data)
+        return
+    stdout.print(
+        f"wrote {home_path} ({len(h.devices)} devices, {h.context_count} contexts) and "
+        f"{events_path} ({n} events)"
+    )
+    stdout.print(f"next: homecog replay --home {home_path} --events {events_path}")

@@ -1,0 +1,91 @@
+"""``homecog cognize`` and ``homecog correct``: the services a user needs in a context, and a
+user's corrections (SPEC §5, §7, §11)."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from contextlib import contextmanager
+from typing import Annotated, Any
+
+import typer
+
+from homecog.cli.options import (
+    ContextOption,
+    DbOption,
+    HomeOption,
+    JsonOption,
+    UserOption,
+    status,
+)
+from homecog.cli.output import emit_json, stdout
+from homecog.home import Home, load_home
+
+
+@contextmanager
+def _knowledge(h: Home, db: str | None) -> Iterator[tuple[Any, Any]]:
+    """The home's store and its tree (built first if the database has none), closed after."""
+    from homecog.knowledge.pipeline import open_tree
+    from homecog.knowledge.store import Store
+
+    store = Store(db, h)
+    try:
+        yield store, open_tree(h, store, progress=status)
+    finally:
+        store.close()
+
+
+def cognize(
+    context: ContextOption,
+    home: HomeOption = "paper",
+    user: UserOption = "default",
+    db: DbOption = None,
+    json: JsonOption = False,
+) -> None:
+    """The services the user needs in a context, in priority order, and why."""
+    from homecog.home.codec import Space, parse_context
+
+    h = load_home(home)
+    point = parse_context(context, Space(h))
+    with _knowledge(h, db) as (_, tree):
+        result = tree.explain_one(point, user=user)
+    if json:
+        emit_json(result.as_dict())
+        return
+    if result.unknown:
+        stdout.print("unknown context: no experience answers it; tell the robot with homecog correct")
+        return
+    if not result.services:
+        stdout.print("nothing to do: the home is as the user likes it")
+        return
+    for i, e in enumerate(result.explanations, 1):
+        why = "; ".join(f"{k} {v}" for k, v in e.conditions.items()) or "always"
+        source = f"{e.user}'s correction" if e.user else f"cluster {e.cluster}"
+        stdout.print(f"{i}. {e.service}  [dim]({e.category}; {source}: {why})[/dim]")
+
+
+def correct(
+    context: ContextOption,
+    want: Annotated[
+        str, typer.Option("--want", help="The services the user wants, comma-separated (empty: none).")
+    ],
+    home: HomeOption = "paper",
+    user: UserOption = "default",
+    db: DbOption = None,
+    json: JsonOption = False,
+) -> None:
+    """Tell the robot which services the user wants in a context; it learns at once."""
+    from homecog.home.codec import Space, parse_context, parse_services
+
+    h = load_home(home)
+    point = parse_context(context, Space(h))
+    wanted = parse_services(want, h)
+    with _knowledge(h, db) as (store, tree):
+        added, rejected = store.correct(tree, point, wanted, user)
+        experiences = store.experience_count()
+    if json:
+        emit_json({"added": added, "rejected": rejected, "experiences": experiences, "user": user})
+        return
+    stdout.print(
+        f"learned for {user}: added {', '.join(added) or 'nothing'}; "
+        f"rejected {', '.join(rejected) or 'nothing'} ({experiences:,} experiences)"
+    )

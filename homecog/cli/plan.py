@@ -1,0 +1,104 @@
+"""``homecog plan`` and ``homecog simulate``: services decomposed into robot actions and carried
+out on the floor plan (SPEC §8, §13)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated, Any
+
+import typer
+
+from homecog.cli.options import (
+    HomeOption,
+    JsonOption,
+    UsageProblemError,
+    check_writable,
+)
+from homecog.cli.output import emit_json, stdout
+from homecog.home import Home, load_home
+
+ServicesOption = Annotated[
+    str, typer.Option("--services", help="Services in priority order, comma-separated.")
+]
+PlanContextOption = Annotated[
+    str | None,
+    typer.Option(
+        "--context", help="The context (as for cognize): the user's location and the device states."
+    ),
+]
+
+
+def _plan(h: Home, services: str, context: str | None) -> Any:
+    from homecog.home.codec import Space, parse_context
+    from homecog.planning import plan_services
+
+    names = [s.strip() for s in services.split(",") if s.strip()]
+    if not names:
+        raise UsageProblemError("--services: expected at least one service")
+    values = None
+    if context is not None:
+        space = Space(h)
+        values = space.context(parse_context(context, space))
+    return plan_services(h, names, context=values)
+
+
+def plan(
+    services: ServicesOption,
+    home: HomeOption = "paper",
+    context: PlanContextOption = None,
+    json: JsonOption = False,
+) -> None:
+    """Decompose services into robot actions (HTN), in the given order, with the task tree."""
+    h = load_home(home)
+    result = _plan(h, services, context)
+    if json:
+        emit_json({"actions": [list(a) for a in result.actions], "tree": [n.as_dict() for n in result.tree]})
+        return
+    stdout.print(result.outline(), highlight=False, markup=False)
+    stdout.print(f"{len(result.actions)} actions", style="dim")
+
+
+def simulate(
+    services: ServicesOption,
+    home: HomeOption = "paper",
+    context: PlanContextOption = None,
+    png: Annotated[Path | None, typer.Option("--png", help="Draw the trajectory into this PNG file.")] = None,
+    bag: Annotated[
+        Path | None,
+        typer.Option("--bag", help="Also write the run as a ROS 2 bag (MCAP) into this new folder."),
+    ] = None,
+    json: JsonOption = False,
+) -> None:
+    """Plan the services and carry the plan out with a simulated robot on the floor plan."""
+    from homecog.simulation import draw_trajectory
+    from homecog.simulation import simulate as run_simulation
+    from homecog.simulation.bag import check_bag_folder, write_bag
+
+    h = load_home(home)
+    if png is not None:
+        check_writable(png)
+    if bag is not None:
+        check_bag_folder(bag)
+    result = _plan(h, services, context)
+    sim = run_simulation(h, result.actions, state=result.start)
+    data = sim.as_dict()
+    data["png"] = None
+    if png is not None:
+        draw_trajectory(h.layout, sim, png)
+        data["png"] = str(png)
+    data["bag"] = str(write_bag(h, sim, bag)) if bag is not None else None
+    if json:
+        emit_json(data)
+        return
+    for step in sim.timeline:
+        stdout.print(
+            f"{step['start']:7.1f} s  {' '.join(step['action'])}"
+            + (f"  ({step['distance_m']:.2f} m)" if step["distance_m"] else ""),
+            highlight=False,
+            markup=False,
+        )
+    stdout.print(f"{len(sim.timeline)} actions in {sim.seconds:.1f} s, {sim.distance_m:.2f} m driven")
+    if png is not None:
+        stdout.print(f"trajectory: {png}")
+    if bag is not None:
+        stdout.print(f"ROS 2 bag: {bag}")

@@ -1,0 +1,89 @@
+"""What the commands print for people (``--json`` prints data instead): tables and lines made
+apart from the commands that compute them."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from rich.table import Table
+
+from homecog.evaluation.report import PAPER_TABLE9
+from homecog.home import Home
+
+
+def when_text(home: Home, cond: Any) -> str:
+    parts = [
+        f"{home.features[f].name}∈{{{', '.join(home.features[f].values[k] for k in sorted(codes))}}}"
+        for f, codes in cond.features
+    ]
+    parts += [
+        f"{home.devices[d].name}={'/'.join('on' if s else 'off' for s in sorted(states))}"
+        for d, states in cond.devices
+    ]
+    return " and ".join(parts) if parts else "always"
+
+
+def home_tables(h: Home) -> list[Table]:
+    """A home's features (with Table 1 codes), devices with their comfort rules, and services."""
+    from homecog.home.encoding import coded
+
+    out = []
+    t = Table(title="Context features (code / normalized, as Table 1)", title_justify="left")
+    for col in ("feature", "kind", "values"):
+        t.add_column(col, no_wrap=col in ("feature", "device", "service"), overflow="fold")
+    for f in h.features:
+        values = []
+        for k, v in enumerate(f.values):
+            code, norm = coded(f, k)
+            rng = f" {f.describe_bin(k)}" if f.bins else ""
+            values.append(f"{v}{rng} ({code}/{norm:.2g})")
+        t.add_row(f.name + (f" [{f.unit}]" if f.unit else ""), f.kind, "\n".join(values))
+    out.append(t)
+
+    t = Table(title="Devices (hardware code order)", title_justify="left")
+    for col in ("#", "device", "room", "switched", "comfort rules (first match wins)"):
+        t.add_column(col, no_wrap=col in ("feature", "device", "service"), overflow="fold")
+    for i, (d, rules) in enumerate(zip(h.devices, h.comfort, strict=True)):
+        shown = "\n".join(f"{'on ' if r.want else 'off'} when {when_text(h, r.when)}" for r in rules)
+        t.add_row(str(i + 1), d.name, d.room or "", "IoT" if d.iot else "by hand", shown or "don't care")
+    out.append(t)
+
+    t = Table(title="Services", title_justify="left")
+    for col in ("#", "service", "category", "effect", "needed when", "prohibited when"):
+        t.add_column(col, no_wrap=col in ("feature", "device", "service"), overflow="fold")
+    for i, (sv, needs, prohibited) in enumerate(zip(h.services, h.needs, h.prohibited, strict=True)):
+        effect = ", ".join(f"{d}→{'on' if v else 'off'}" for d, v in sv.sets) or "interaction"
+        t.add_row(
+            str(i + 1),
+            sv.name,
+            sv.category,
+            effect,
+            "\n".join(when_text(h, c) for c in needs) or "-",
+            "\n".join(when_text(h, c) for c in prohibited) or "-",
+        )
+    out.append(t)
+    return out
+
+
+def eval_table(result: Any, home: str, truth: str) -> Table:
+    """Each method's micro figures beside the paper's Table 9."""
+    table = Table(title=f"{home}: {result.scenarios:,} scenarios, truth {truth}", title_justify="left")
+    for col in ("method", "precision", "recall", "F1", "exact", "seconds"):
+        table.add_column(col, justify="right" if col != "method" else "left")
+    for name, m in result.methods.items():
+        table.add_row(
+            name, *(f"{m.micro[k]:.4f}" for k in ("precision", "recall", "f1", "exact")), f"{m.seconds:.2f}"
+        )
+    for name, (p, r, f) in PAPER_TABLE9.items():
+        table.add_row(name, f"{p / 100:.4f}", f"{r / 100:.4f}", f"{f / 100:.4f}", "", "")
+    return table
+
+
+def replay_table(result: Any, events: str) -> Table:
+    """Each method's running figures at the end of an event stream."""
+    table = Table(title=f"{result.events:,} events of {events}, predicted then learned", title_justify="left")
+    for col in ("method", "precision", "recall", "F1"):
+        table.add_column(col, justify="right" if col != "method" else "left")
+    for name, m in result.methods.items():
+        table.add_row(name, *(f"{m[k]:.4f}" for k in ("precision", "recall", "f1")))
+    return table

@@ -1,0 +1,146 @@
+"""``homecog up``: the running robot, its HMI and HTTP API (SPEC §10, §12)."""
+
+from __future__ import annotations
+
+import contextlib
+import os
+from typing import Annotated, Any
+
+import typer
+
+from homecog.cli.options import (
+    DbOption,
+    HomeOption,
+    UsageProblemError,
+)
+from homecog.cli.output import stdout
+from homecog.home import load_home
+
+LOCAL_HOSTS = ("127.0.0.1", "localhost", "::1")
+
+
+def up(
+    home: HomeOption = "paper",
+    db: DbOption = None,
+    host: Annotated[
+        str, typer.Option(help="Address to serve on; any but 127.0.0.1 needs a token.")
+    ] = "127.0.0.1",
+    port: Annotated[int, typer.Option(min=1, max=65535, help="Port to serve on.")] = 8000,
+    token: Annotated[
+        str | None,
+        typer.Option(
+            help="Token every /api request needs (default: $HOMECOG_TOKEN; none on 127.0.0.1, "
+            "else generated and printed once)."
+        ),
+    ] = None,
+    speed: Annotated[
+        float,
+        typer.Option(
+            min=0, max=100_000, help="Simulated seconds per real second of the simulated home (0: manual)."
+        ),
+    ] = 60.0,
+    mqtt: Annotated[
+        str | None,
+        typer.Option(
+            help="Take the context from this MQTT broker (mqtt://host:1883) instead of the simulator."
+        ),
+    ] = None,
+    publish: Annotated[
+        str | None,
+        typer.Option(
+            help="Mirror the simulated home on this MQTT broker: its states go out, commands come in."
+        ),
+    ] = None,
+    home_assistant: Annotated[
+        str | None,
+        typer.Option(
+            "--home-assistant", help="Take the context from this Home Assistant (http://host:8123) instead."
+        ),
+    ] = None,
+    ha_token: Annotated[
+        str | None, typer.Option("--ha-token", help="Its access token (default: $HOMECOG_HA_TOKEN).")
+    ] = None,
+) -> None:
+    """Start the robot: train or reuse the Q table, build or reuse the tree, serve the HMI."""
+    import functools
+    import gc
+    import secrets
+
+    import uvicorn
+
+    from homecog.context.simulated import SimulatedHome
+    from homecog.knowledge.pipeline import open_tree
+    from homecog.knowledge.store import Store, redact
+    from homecog.web.main import create_app
+    from homecog.web.runtime import ManualSource, Runtime
+    from homecog.web.settings import Settings
+
+    if token is not None and len(token) < 8:
+        raise UsageProblemError("--token must be at least 8 characters")
+    if publish is not None and (mqtt is not None or speed == 0):
+        raise UsageProblemError("--publish mirrors the simulated home; it needs --speed > 0 and no --mqtt")
+    if home_assistant is not None and (mqtt is not None or publish is not None):
+        raise UsageProblemError(
+            "--home-assistant is the home's context; it goes with neither --mqtt nor --publish"
+        )
+    h = load_home(home)
+    settings = Settings.of(token=token)  # or $HOMECOG_TOKEN
+    if host not in LOCAL_HOSTS and settings.token is None:
+        settings = settings.model_copy(update={"token": secrets.token_urlsafe(24)})
+        stdout.print(f"token for every /api request (shown once): {settings.token}")
+    say = stdout.print
+    with contextlib.ExitStack() as stack:
+        if home_assistant is not None:  # first: a wrong URL, token or entity fails before any training
+            from homecog.context.home_assistant import HomeAssistantSource
+
+            token_ha = ha_token or os.environ.get("HOMECOG_HA_TOKEN")
+            ha_source = HomeAssistantSource(h, home_assistant, token=token_ha).start()
+            stack.callback(ha_source.stop)
+            say(f"context from Home Assistant {ha_source.version} at {home_assistant}")
+        store = Store(db, h)
+        stack.callback(store.close)
+        tree = open_tree(h, store, progress=lambda m: say(m, style="dim"))
+        source: Any = SimulatedHome(h, speed=speed) if speed > 0 else ManualSource(h)
+        if mqtt is not None:
+            from homecog.context.mqtt import MqttSource
+
+            source = MqttSource(h, mqtt)
+        if home_assistant is not None:
+            source = ha_source
+        runtime = Runtime(home=h, store=store, tree=tree, source=source)
+        if mqtt is not None:  # started once the runtime exists: a retained state comes at once
+            source.on_change = functools.partial(runtime.publish, "context")
+            source.start()
+            stack.callback(source.stop)
+            say(
+                f"context from {mqtt}: topics homecog/{h.name}/state/<name>, "
+                f"commands to homecog/{h.name}/command/<device>"
+            )
+        if home_assistant is not None:  # running since before the training: its changes go on from here
+            ha_source.on_change = functools.partial(runtime.publish, "context")
+        if publish is not None:
+            from homecog.context.mqtt import MqttPublisher
+
+            mirror = MqttPublisher(h, publish, on_command=runtime.switch).start()
+            stack.callback(mirror.stop)
+            mirror.publish(source.snapshot(), everything=True)
+            runtime.watchers.append(mirror.publish)
+            say(
+                f"the simulated home on {publish}: states to homecog/{h.name}/state/<name>, "
+                f"commands from homecog/{h.name}/command/<device>"
+            )
+        say(f"knowledge: {redact(store.url)} ({store.experience_count():,} experiences)", style="dim")
+        say(f"homecog is up: http://{host if ':' not in host else f'[{host}]'}:{port}")
+        live = speed if mqtt is None and home_assistant is None else 1.0  # a real home's own clock
+        gc.freeze()  # the tree lives as long as the server: keep the collector from walking it
+        uvicorn.run(
+            create_app(runtime, settings.model_copy(update={"live": live})),
+            host=host,
+            port=port,
+            log_level="warning",
+            access_log=False,
+            proxy_headers=False,  # no proxy is trusted: X-Forwarded-For is not the client
+        )
+
+
+# -- entry point -------------------------------------------------------------------------------

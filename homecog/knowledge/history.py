@@ -1,0 +1,122 @@
+"""The history of corrections, read from the store's experience log (SPEC §6, §10).
+
+Each correction row of the log holds what the user wanted and what the correction added and
+rejected; what the robot had proposed is the wanted services less the added ones plus the
+rejected ones, and the robot agreed when nothing was added or rejected. So the history and the
+agreement curve need nothing but the log, and outlive the server that took the corrections.
+One query, on the index of ``(kind, user, id)``, reads the latest ``limit`` of them.
+
+>>> from homecog.home import load_home
+>>> from homecog.knowledge.store import Store
+>>> correction_history(Store("sqlite://", load_home("paper"))).total
+0
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from datetime import UTC
+
+from sqlalchemy import func, select
+from sqlalchemy.exc import SQLAlchemyError
+
+from homecog.errors import StoreError
+from homecog.knowledge.database import redact
+from homecog.knowledge.schema import ExperienceRow
+from homecog.knowledge.store import Store
+
+
+@dataclass(frozen=True)
+class Correction:
+    """One correction as the log has it."""
+
+    id: int
+    at: float  # seconds since 1970, UTC
+    user: str
+    want: list[str]
+    added: list[str]
+    rejected: list[str]
+
+    @property
+    def predicted(self) -> list[str]:
+        """What the robot had proposed before the correction."""
+        return [s for s in self.want if s not in self.added] + self.rejected
+
+    @property
+    def agreed(self) -> bool:
+        """Whether the robot had proposed just what the user wanted."""
+        return not self.added and not self.rejected
+
+
+@dataclass(frozen=True)
+class History:
+    """The latest corrections, oldest first, and how many the log holds in all."""
+
+    total: int
+    corrections: list[Correction]
+
+
+@dataclass(frozen=True)
+class Agreement:
+    """The running agreement after the ``n``-th correction."""
+
+    n: int
+    user: str
+    agreed: bool
+    rate: float
+
+
+def correction_history(store: Store, *, user: str | None = None, limit: int = 500) -> History:
+    """The latest ``limit`` corrections (of ``user``, or of everyone), oldest first.
+
+    Raises :class:`StoreError` when the database cannot be used.
+    """
+    if user is not None and "\x00" in user:
+        return History(0, [])  # no correction is by such a name, and PostgreSQL refuses to look
+    where = [ExperienceRow.kind == "correction"]
+    if user is not None:
+        where.append(ExperienceRow.user == user)
+    latest = (
+        select(ExperienceRow.id, ExperienceRow.user, ExperienceRow.created_at, ExperienceRow.payload)
+        .where(*where)
+        .order_by(ExperienceRow.id.desc())
+        .limit(limit)
+    )
+    try:
+        with store.engine.connect() as conn:
+            total = conn.execute(select(func.count()).select_from(ExperienceRow).where(*where)).scalar_one()
+            rows = conn.execute(latest).all()
+    except SQLAlchemyError as e:
+        orig = getattr(e, "orig", None) or e
+        first = (str(orig).strip().splitlines() or [type(orig).__name__])[0]
+        raise StoreError(f"--db {redact(store.url)}: cannot use the database: {first}") from None
+    corrections = []
+    for row in reversed(rows):
+        payload = json.loads(row.payload)
+        corrections.append(
+            Correction(
+                id=row.id,
+                at=row.created_at.replace(tzinfo=UTC).timestamp(),
+                user=row.user or "",
+                want=list(payload["want"]),
+                added=list(payload["added"]),
+                rejected=list(payload["rejected"]),
+            )
+        )
+    return History(total=total, corrections=corrections)
+
+
+def agreement(history: History) -> list[Agreement]:
+    """Per correction in order: whether the robot had already proposed what the user wanted,
+    and the running rate of that agreement.
+
+    >>> c = [Correction(i, 0.0, "kim", ["A"], [], []) for i in (1, 2)]
+    >>> [a.rate for a in agreement(History(2, [Correction(0, 0.0, "kim", ["A"], ["A"], []), *c]))]
+    [0.0, 0.5, 0.6666666666666666]
+    """
+    out, agreed = [], 0
+    for n, c in enumerate(history.corrections, start=1):
+        agreed += c.agreed
+        out.append(Agreement(n=n, user=c.user, agreed=c.agreed, rate=agreed / n))
+    return out

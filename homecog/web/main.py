@@ -1,0 +1,97 @@
+"""The HTTP API of the running robot (SPEC §10), with OpenAPI at ``/docs`` and ``/openapi.json``.
+
+========================  ===================================================================
+``GET /api/home``         the home: features, devices, services, floor plan
+``GET /api/context``      the current context, as ``POST /api/cognize`` takes it
+``GET /api/source``       where the context comes from, and whether it is connected
+``PUT /api/context``      manual mode: set some features or devices
+``POST /api/cognize``     ``{"context": {...}, "user": ...}`` → services, unknown, explanations
+``POST /api/corrections`` ``{"context": {...}, "want": [...], "user": ...}`` → added, rejected
+``POST /api/plan``        ``{"services": [...], "context": {...}}`` → actions, tree, simulation
+``GET /api/history``      corrections so far and how the robot's agreement with users grew
+``GET /api/events``       a live stream of server-sent events: context, correction
+========================  ===================================================================
+
+The schema is made for the served home (:mod:`homecog.web.models`). With a token every
+``/api`` endpoint needs it (:mod:`homecog.web.deps`); the page and the schema do not. Bodies
+over 64 KiB get 413; every error is ``{"detail": "..."}`` (:mod:`homecog.web.errors`).
+"""
+
+from __future__ import annotations
+
+import asyncio
+import logging
+import time
+from collections.abc import AsyncIterator
+from contextlib import asynccontextmanager
+from typing import Any
+
+from fastapi import FastAPI, Security
+from starlette.types import ASGIApp
+
+from homecog.web import errors
+from homecog.web.deps import require_token, require_token_or_query
+from homecog.web.fastpath import BodyLimit, CognizeFastPath
+from homecog.web.models import HomeModels
+from homecog.web.routes import cognize, context, corrections, events, history, home, page, plan, source
+from homecog.web.runtime import Runtime
+from homecog.web.settings import Settings
+
+
+def create_app(runtime: Runtime, settings: Settings | None = None) -> ASGIApp:
+    """The ASGI application serving ``runtime``.
+
+    It is the FastAPI application (routes, OpenAPI), reached as ``.app.app``, behind two plain
+    ASGI layers: the body limit, then the fast path of ``POST /api/cognize``. With
+    ``settings.live``, the server's clock moves the home that many simulated seconds per real
+    second, and the robot acts on what it proposes.
+    """
+    settings = settings if settings is not None else Settings()
+    models = HomeModels.of(runtime.home)
+
+    @asynccontextmanager
+    async def lifespan(app: FastAPI) -> AsyncIterator[None]:
+        task = asyncio.create_task(_live(runtime, settings.live)) if settings.live else None
+        yield
+        if task is not None:
+            task.cancel()
+
+    app = FastAPI(
+        title=f"homecog: {runtime.home.name}",
+        summary="Service cognition for a home service robot",
+        version="0.1.0",
+        lifespan=lifespan,
+    )
+    app.state.runtime, app.state.settings, app.state.models = runtime, settings, models
+    errors.install(app, runtime.home)
+    app.include_router(page.router)  # first: after cognition, the most asked for
+    guarded: dict[str, Any] = {}
+    if settings.token is not None:
+        guarded = {"dependencies": [Security(require_token)], "responses": errors.responses(401)}
+    app.include_router(home.router, **guarded)
+    for make in (context.router, cognize.router, corrections.router, plan.router):
+        app.include_router(make(models), **guarded)
+    app.include_router(history.router, **guarded)
+    app.include_router(source.router, **guarded)
+    if settings.token is not None:
+        guarded = {
+            "dependencies": [Security(require_token_or_query)],
+            "responses": errors.responses(401, stream=True),
+        }
+    app.include_router(events.router, **guarded)
+    # in front of FastAPI's own middleware stack, whose error middleware alone wraps every send
+    fast = CognizeFastPath(app, runtime, models.cognize_in, settings.token)
+    return BodyLimit(fast, limit=settings.max_body)
+
+
+async def _live(runtime: Runtime, speed: float, period: float = 1.0) -> None:
+    """Advance the simulated home with the real clock; a failing tick is logged, not fatal."""
+    last = time.monotonic()
+    while True:
+        await asyncio.sleep(period)
+        now = time.monotonic()
+        try:
+            await asyncio.to_thread(runtime.tick, (now - last) * speed)
+        except Exception:  # the server stays up whatever the simulation does
+            logging.getLogger("homecog.web").exception("the simulated home failed a tick")
+        last = now

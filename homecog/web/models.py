@@ -1,0 +1,311 @@
+"""The HTTP contract: a pydantic model for every input and output.
+
+The context is made per home (:class:`HomeModels`): an object with one property per feature
+and device — an enum of the values of a categorical feature, a number within the bins of a
+numeric one, ``HH:MM`` (or decimal hours) for the clock, ``"on"``/``"off"`` for a device — so
+that the OpenAPI schema says exactly what the server takes, and the server takes exactly what it
+says. The same context comes back from ``GET /api/context``, so an answer can be sent again.
+
+>>> from homecog.home import load_home
+>>> models = HomeModels.of(load_home("paper"))
+>>> schema = models.cognize_in.model_json_schema()["$defs"]["Context"]
+>>> schema["properties"]["location"]["enum"]
+['table', 'sofa', 'bed', 'dining_table']
+>>> {k: v for k, v in schema["properties"]["illumination"].items() if k != "description"}
+{'minimum': 0.0, 'title': 'Illumination', 'type': 'number'}
+>>> json_context(models.home, {"time": "7:05", "temperature": "25", "lamp": "ON"})
+{'time': '07:05', 'temperature': 25.0, 'lamp': 'on'}
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Annotated, Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, Strict, create_model
+from typing_extensions import TypedDict
+
+from homecog.home.clock import format_clock, parse_clock
+from homecog.home.model import Feature, Home
+from homecog.home.states import parse_state
+
+# Decimal hours or HH:MM[:SS] from 00:00 to 24:00, ASCII digits. Every string it matches is
+# accepted by the home's own parser (homecog.home.model.parse_clock) with the same meaning;
+# tests/test_contract.py checks both directions. Python's `re` semantics (a final newline
+# before `$`), as the fuzzer and the server both use them.
+CLOCK_PATTERN = (
+    r"^(?:(?:[01]?[0-9]|2[0-3]):[0-5][0-9](?::[0-5][0-9])?|24:00(?::00)?"
+    r"|(?:[01]?[0-9]|2[0-3])(?:\.[0-9]+)?|24(?:\.0+)?)$"
+)
+USER_PATTERN = r"^[^\x00-\x1f\x7f]+$"  # a name, without control characters
+STRICT = ConfigDict(extra="forbid", regex_engine="python-re")
+
+User = Annotated[
+    str,
+    Field(
+        min_length=1,
+        max_length=200,
+        pattern=USER_PATTERN,
+        description="Whose services these are: corrections are per user.",
+        examples=["default"],
+    ),
+]
+State = Literal["on", "off"]
+
+
+class ErrorOut(BaseModel):
+    """Every error answer: one message naming what is wrong."""
+
+    detail: str = Field(description="What is wrong, in one line.", examples=["missing radio"])
+
+
+# -- the home ----------------------------------------------------------------------------------
+class FeatureOut(BaseModel):
+    name: str
+    kind: Literal["clock", "numeric", "categorical"]
+    values: list[str] = Field(description="The bins (clock, numeric) or the values, in code order.")
+    unit: str | None
+
+
+class DeviceOut(BaseModel):
+    name: str
+    room: str | None
+    iot: bool = Field(description="Switched by an IoT command; otherwise the robot goes and does it.")
+
+
+class ServiceOut(BaseModel):
+    name: str
+    category: str
+
+
+class LayoutOut(BaseModel):
+    """The floor plan in metres, y up."""
+
+    size: list[float] = Field(description="[width, height]")
+    rooms: dict[str, list[float]] = Field(description="Rectangles [x0, y0, x1, y1].")
+    walls: list[list[float]] = Field(description="Segments [x0, y0, x1, y1].")
+    doors: list[list[float]] = Field(description="Segments [x0, y0, x1, y1].")
+    places: dict[str, list[float]] = Field(description="Points [x, y].")
+    robot: str = Field(description="The place the robot starts at.")
+
+
+class HomeOut(BaseModel):
+    name: str
+    features: list[FeatureOut]
+    devices: list[DeviceOut]
+    services: list[ServiceOut]
+    layout: LayoutOut | None = Field(description="null for a home without a floor plan.")
+
+
+def home_out(home: Home) -> HomeOut:
+    """The home as ``GET /api/home`` gives it."""
+    layout = home.layout
+    return HomeOut(
+        name=home.name,
+        features=[
+            FeatureOut(name=f.name, kind=f.kind, values=list(f.values), unit=f.unit) for f in home.features
+        ],
+        devices=[DeviceOut(name=d.name, room=d.room, iot=d.iot) for d in home.devices],
+        services=[ServiceOut(name=s.name, category=s.category) for s in home.services],
+        layout=None
+        if layout is None
+        else LayoutOut(
+            size=list(layout.size),
+            rooms={name: list(r) for name, r in layout.rooms.items()},
+            walls=[list(w) for w in layout.walls],
+            doors=[list(d) for d in layout.doors],
+            places={name: list(p) for name, p in layout.places.items()},
+            robot=layout.robot,
+        ),
+    )
+
+
+class SourceOut(BaseModel):
+    """Where the context comes from and whether it is connected; a real home's source says more
+    (absent fields: the source does not report them)."""
+
+    kind: str = Field(description="simulated, manual, mqtt or home_assistant")
+    connected: bool
+    url: str | None = None
+    since: float | None = Field(None, description="Connected since: seconds since 1970 (UTC).")
+    version: str | None = Field(None, description="Home Assistant's version.")
+    reconnects: int | None = None
+    missing: list[str] | None = Field(None, description="Features and devices without a value yet.")
+    skipped: int | None = Field(None, description="States that could not be read, skipped.")
+    skipped_switches: int | None = None
+    last_error: str | None = None
+
+
+# -- answers -----------------------------------------------------------------------------------
+class ExplanationOut(BaseModel):
+    service: str
+    category: str = Field(description="The service's category (the tree's middle level).")
+    priority: float = Field(description="Higher first: the order the services are carried out in.")
+    cluster: int = Field(description="The experience cluster that answered.")
+    user: str | None = Field(description="Whose correction made the cluster; null: common knowledge.")
+    conditions: dict[str, str] = Field(description="What the cluster matched, per feature or device.")
+
+
+class CognizeOut(BaseModel):
+    services: list[str] = Field(description="In priority order.")
+    unknown: bool = Field(description="True when no experience answers the context.")
+    explanations: list[ExplanationOut]
+
+
+class CorrectionOut(BaseModel):
+    added: list[str] = Field(description="Wanted services the robot had not proposed.")
+    rejected: list[str] = Field(description="Proposed services the user did not want.")
+    experiences: int = Field(description="Experiences in the log now.")
+    user: str
+
+
+class ActionNode(BaseModel):
+    action: list[str] = Field(description="[name, args...]")
+    index: int = Field(description="Its position in the plan, from 1.")
+
+
+class TaskNode(BaseModel):
+    task: list[str] = Field(description="[name, args...]")
+    method: str | None = Field(description="The method that decomposed it.")
+    children: list[TaskNode | ActionNode]
+
+
+class TimelineRow(BaseModel):
+    index: int
+    action: list[str]
+    start: float = Field(description="Seconds from the start of the plan.")
+    end: float
+    distance_m: float
+
+
+class SimulationOut(BaseModel):
+    seconds: float
+    distance_m: float
+    timeline: list[TimelineRow]
+    devices: dict[str, State] = Field(description="The devices when the plan is done.")
+    trajectory: list[list[float]] = Field(description="At most 400 rows [t, x, y]: seconds, metres.")
+
+
+class PlanOut(BaseModel):
+    actions: list[list[str]] = Field(description="The robot's atomic actions in order: [name, args...].")
+    tree: list[TaskNode | ActionNode] = Field(description="The decomposition tree, a root per service.")
+    simulation: SimulationOut
+
+
+class HistoryCorrectionOut(BaseModel):
+    at: float = Field(description="When it was stored: seconds since 1970 (UTC).")
+    user: str
+    want: list[str] = Field(description="What the user wanted.")
+    predicted: list[str] = Field(description="What the robot had proposed.")
+    agreed: bool = Field(description="Whether the robot had proposed just that.")
+
+
+class AgreementOut(BaseModel):
+    n: int = Field(description="The correction's number, from 1.")
+    user: str
+    agreed: bool
+    rate: float = Field(description="The share of corrections so far the robot already agreed with.")
+
+
+class HistoryOut(BaseModel):
+    total: int = Field(description="Corrections in the experience log (of the user, if asked).")
+    corrections: list[HistoryCorrectionOut] = Field(description="The latest, oldest first.")
+    agreement: list[AgreementOut] = Field(description="The running agreement over those corrections.")
+
+
+# -- the context of one home --------------------------------------------------------------------
+@dataclass(frozen=True)
+class HomeModels:
+    """The models whose shape depends on the home: the context and what carries it."""
+
+    home: Home
+    context: Any  # a TypedDict: every feature and device
+    context_change: Any  # a TypedDict: some features or devices
+    service: Any  # Literal of the service names
+    cognize_in: type[BaseModel]
+    correction_in: type[BaseModel]
+    plan_in: type[BaseModel]
+    context_in: type[BaseModel]
+
+    @classmethod
+    def of(cls, home: Home) -> HomeModels:
+        fields = {f.name: _feature_type(f) for f in home.features}
+        fields |= {
+            d.name: Annotated[State, Field(description=f"Device{f' ({d.room})' if d.room else ''}.")]
+            for d in home.devices
+        }
+        context: Any = TypedDict("Context", fields)  # type: ignore[misc]
+        context.__pydantic_config__ = STRICT
+        change: Any = TypedDict("ContextChange", fields, total=False)  # type: ignore[misc]
+        change.__pydantic_config__ = STRICT
+        service: Any = Literal[tuple(home.service_names)]  # type: ignore[valid-type]
+        in_context = Field(description="Every feature and device of the home.")
+        cognize_in = create_model(
+            "CognizeIn", __config__=STRICT, context=(context, in_context), user=(User, "default")
+        )
+        correction_in = create_model(
+            "CorrectionIn",
+            __config__=STRICT,
+            context=(context, in_context),
+            want=(list[service], Field(max_length=200, description="The services wanted (empty: none).")),
+            user=(User, "default"),
+        )
+        plan_in = create_model(
+            "PlanIn",
+            __config__=STRICT,
+            services=(list[service], Field(min_length=1, max_length=500, description="In this order.")),
+            context=(context | None, Field(None, description="Where; the devices start as it says.")),
+        )
+        context_in = create_model(
+            "ContextIn",
+            __config__=STRICT,
+            values=(change, Field(description="Features or devices to change.")),
+        )
+        return cls(home, context, change, service, cognize_in, correction_in, plan_in, context_in)
+
+
+def _feature_type(f: Feature) -> Any:
+    bins = ", ".join(f"{v} {f.describe_bin(k)}" for k, v in enumerate(f.values))
+    if f.kind == "categorical":
+        return Annotated[Literal[tuple(f.values)], Field(description="Categorical.")]  # type: ignore[valid-type]
+    if f.kind == "clock":
+        hours = Annotated[float, Strict(), Field(ge=0, le=24, allow_inf_nan=False)]
+        text = Annotated[str, Field(pattern=CLOCK_PATTERN)]
+        return Annotated[text | hours, Field(description=f'"HH:MM" or decimal hours; bins {bins}')]
+    assert f.bins is not None  # numeric: bins neither overlap nor leave a gap
+    low, high = min(b[0] for b in f.bins), max(b[1] for b in f.bins)
+    bounds: dict[str, float] = {}
+    if not math.isinf(low):
+        bounds["ge"] = low
+    if not math.isinf(high):
+        bounds["lt"] = high
+    return Annotated[
+        float, Strict(), Field(allow_inf_nan=False, description=f"A number; bins {bins}", **bounds)
+    ]
+
+
+def json_context(home: Home, values: Mapping[str, object]) -> dict[str, str | float]:
+    """Context values as the contract writes them (the clock ``HH:MM``, numbers as numbers,
+    devices ``on``/``off``), from text as a context source or a scenario file has them.
+    Raises :class:`~homecog.errors.ContextError` (or ``ValueError``) for a value that does not fit.
+    """
+    out: dict[str, str | float] = {}
+    for name, value in values.items():
+        kind = _kind(home, name)
+        if kind == "clock":
+            out[name] = format_clock(parse_clock(value))  # type: ignore[arg-type]
+        elif kind == "numeric":
+            out[name] = float(home.feature(name).parse(value))
+        elif kind == "device":
+            out[name] = "on" if parse_state(value, name) else "off"
+        else:
+            out[name] = str(value)
+    return out
+
+
+def _kind(home: Home, name: str) -> str:
+    if name in home.device_names:
+        return "device"
+    return home.feature(name).kind

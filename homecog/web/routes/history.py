@@ -1,0 +1,37 @@
+"""``GET /api/history``: the corrections and how the robot's agreement with users grew, read
+from the experience log (they outlive the server)."""
+
+from __future__ import annotations
+
+from typing import Annotated
+
+from fastapi import APIRouter, Query
+
+from homecog.knowledge.history import agreement, correction_history
+from homecog.web.deps import SettingsDep, StoreDep
+from homecog.web.errors import responses
+from homecog.web.models import AgreementOut, HistoryCorrectionOut, HistoryOut
+
+router = APIRouter(tags=["cognition"])
+
+
+@router.get("/api/history", response_model=HistoryOut, responses=responses(422, 503))
+def history(
+    store: StoreDep,
+    settings: SettingsDep,
+    user: Annotated[str | None, Query(min_length=1, max_length=200, description="Only this user's.")] = None,
+    limit: Annotated[
+        int | None, Query(ge=1, le=100_000, description="At most this many (default 500).")
+    ] = None,
+) -> HistoryOut:
+    """The latest corrections (oldest first) and the running agreement over them: whether the
+    robot had already proposed what the user wanted. 503 when the database cannot be used."""
+    found = correction_history(store, user=user, limit=limit or settings.history_limit)
+    return HistoryOut(
+        total=found.total,
+        corrections=[
+            HistoryCorrectionOut(at=c.at, user=c.user, want=c.want, predicted=c.predicted, agreed=c.agreed)
+            for c in found.corrections
+        ],
+        agreement=[AgreementOut(n=a.n, user=a.user, agreed=a.agreed, rate=a.rate) for a in agreement(found)],
+    )
