@@ -13,7 +13,8 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 
 from homecog.errors import PlanningError
-from homecog.home.model import Home, parse_state
+from homecog.home.model import Home
+from homecog.home.states import parse_state
 
 USER = "user"
 """The one person of the planning state (the argument of ``hand_over``)."""

@@ -15,7 +15,8 @@ True
 
 from __future__ import annotations
 
-from homecog.simulation.draw import draw_trajectory
+from typing import Any
+
 from homecog.simulation.grid import OccupancyGrid, occupancy_grid, plan_path
 from homecog.simulation.robot import DiffDrive
 from homecog.simulation.simulate import Simulation, SimulationResult, action_seconds, simulate
@@ -31,3 +32,13 @@ __all__ = [
     "plan_path",
     "simulate",
 ]
+
+
+def __getattr__(name: str) -> Any:
+    # the drawing imports matplotlib (half a second): only for those who draw, not for the
+    # running robot that acts through the simulator
+    if name == "draw_trajectory":
+        from homecog.simulation.draw import draw_trajectory
+
+        return draw_trajectory
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
