@@ -50,6 +50,30 @@ class UsageProblemError(HomecogError):
     """A bad command-line argument."""
 
 
+class EvaluationError(HomecogError):
+    """Bad evaluation input: an incompatible truth home, a broken scenario or event file."""
+
+
+class RealDataError(HomecogError):
+    """A data folder that cannot be read as the MIT home-activity format."""
+
+
+class MqttError(ContextError):
+    """A broker URL that cannot be used, or a broker that cannot be reached."""
+
+
+class ConflictError(StoreError):
+    """A transaction the database aborted for a deadlock or a serialization failure: retry it."""
+
+
+class FixedContextError(HomecogError):
+    """The context comes from a source that cannot be set by hand (a broker, Home Assistant)."""
+
+
+class SettingsError(HomecogError):
+    """A setting of the server that is out of range."""
+
+
 class CommandError(HomecogError):
     """A command that could not carry an action out in the world: a switch whose broker is
     gone, a door that is closed, an object that is not where the robot believed it. Acting

@@ -158,5 +158,4 @@ def test_invariants_over_whole_paper_transition_table(paper, paper_core):
 
 
 def _popcount(x: np.ndarray) -> np.ndarray:
-    x = x.astype(np.uint64)
-    return np.unpackbits(x.view(np.uint8).reshape(-1, 8), axis=1).sum(axis=1).astype(np.int64)
+    return np.bitwise_count(x.astype(np.uint64)).astype(np.int64)

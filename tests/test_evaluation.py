@@ -8,7 +8,8 @@ from pathlib import Path
 import pytest
 
 from homecog.cli.main import main
-from homecog.evaluation.evaluate import EvaluationError, check_truth, evaluate, load_scenarios
+from homecog.errors import EvaluationError
+from homecog.evaluation.evaluate import check_truth, evaluate, load_scenarios
 from homecog.evaluation.scenarios import Scenario, random_scenarios
 from homecog.home import load_home
 from homecog.home.codec import Space

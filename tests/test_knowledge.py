@@ -6,15 +6,16 @@ import pickle
 
 import numpy as np
 import pytest
-from knowledge_fixtures import home, samples, tree
+from knowledge_fixtures import home, policy, samples, tree
 
 from homecog.environment.core import Core
 from homecog.errors import ContextError
 from homecog.evaluation.metrics import scores
 from homecog.evaluation.scenarios import random_scenarios
+from homecog.home.groups import device_groups
 from homecog.knowledge.ihdr import IHDRTree
 from homecog.knowledge.model import Numeric
-from homecog.knowledge.samples import _axes
+from homecog.knowledge.samples import _axes, policy_samples
 
 PAPER_FIG9 = [
     (
@@ -117,26 +118,30 @@ def test_every_sample_condition_is_sufficient_and_keeps_what_matters(name):
 
 
 def test_samples_follow_the_policy_and_table5_layout():
-    ss = samples("paper")
-    assert len(ss) == 663_552
-    s = ss[12345]
+    paper = home("paper")
+    sets = list(policy_samples(paper, policy("paper")))
+    groups = [g for g in device_groups(paper) if g.services]
+    # every start state of every group, never of the joint space (663,552 start states)
+    assert [len(s) for s in sets] == [paper.context_count << len(g.devices) for g in groups]
+    window = sets[0]  # the window with both air conditioners
+    s = window[12345]
     assert len(s.services) == len(s.relevant)
     assert all(m > 0 for m in s.relevant)
-    rows = ss.table5(rows=6)
+    rows = window.table5(rows=6)
     assert len(rows) == 6
     for row in rows:
-        assert row["service"] in home("paper").service_names
+        assert row["service"] in {paper.services[a].name for a in groups[0].service_index}
         assert any(v == "0" for k, v in row.items() if k != "service")  # unrelated conditions exist
 
 
 def test_numeric_readings_lie_inside_their_bins():
-    ss = samples("paper")
-    h = home("paper")
-    for j, f in enumerate(h.features):
-        if f.bins is None:
-            continue
-        for i in range(0, len(ss), 997):
-            assert f.discretize(float(ss.readings[i, j])) == ss.codes[i, j]
+    paper = home("paper")
+    for ss in policy_samples(paper, policy("paper")):
+        for j, f in enumerate(paper.features):
+            if f.bins is None:
+                continue
+            for i in range(0, len(ss), 97):
+                assert f.discretize(float(ss.readings[i, j])) == ss.codes[i, j]
 
 
 # -- the tree, both modes --------------------------------------------------------------------------

@@ -8,8 +8,9 @@ from pathlib import Path
 import pytest
 
 from homecog.cli.main import main
+from homecog.errors import RealDataError
 from homecog.evaluation.evaluate import load_scenarios
-from homecog.evaluation.mit import RealDataError, read_activities
+from homecog.evaluation.mit import read_activities
 from homecog.home import load_home
 
 DATA = Path(__file__).resolve().parents[2] / "shared" / "realdata" / "mit-home-activity"

@@ -56,7 +56,7 @@ from urllib.parse import unquote, urlsplit
 import paho.mqtt.client as mqtt
 from paho.mqtt.enums import CallbackAPIVersion
 
-from homecog.errors import ContextError
+from homecog.errors import ContextError, MqttError
 from homecog.home.codec import normalize
 from homecog.home.model import Home
 from homecog.home.states import parse_state
@@ -67,10 +67,6 @@ DEFAULT_PREFIX = "homecog"
 CONNECT_TIMEOUT = 5.0  # seconds to wait for the broker at start
 MIN_RECONNECT_DELAY = 1  # seconds; paho doubles it after each failed attempt
 MAX_RECONNECT_DELAY = 8
-
-
-class MqttError(ContextError):
-    """A broker URL that cannot be used, or a broker that cannot be reached."""
 
 
 @dataclass(frozen=True)

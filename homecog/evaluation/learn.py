@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from homecog.errors import HomecogError
+from homecog.errors import EvaluationError
 from homecog.evaluation.methods import METHODS, HoeffdingMethod, KMeansMethod, Method, TreeMethod
 from homecog.home.codec import Space
 from homecog.home.encoding import context_index
@@ -34,10 +34,6 @@ DRAWS = 30_000
 #: updates about 150,000 features a second here, so 10 million is about a minute.
 HOEFFDING_BUDGET = 10_000_000
 HOEFFDING_SAMPLES = 8_000
-
-
-class EvaluationError(HomecogError):
-    """Bad evaluation input: an incompatible truth home, a broken scenario file."""
 
 
 @dataclass

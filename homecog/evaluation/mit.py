@@ -28,7 +28,7 @@ from dataclasses import dataclass, field
 from datetime import date, datetime, timedelta
 from pathlib import Path
 
-from homecog.errors import HomecogError
+from homecog.errors import RealDataError
 
 PLACE = {"latitude": 42.3601, "longitude": -71.0942, "tz": "America/New_York", "name": "Cambridge, MA"}
 LUX_PER_WATT = 110.0
@@ -52,10 +52,6 @@ BEHAVIOR = {
     "out": ["Going out to work", "Going out for shopping", "Going out for entertainment"],
 }
 DEVICE_KINDS = {"light switch": "light", "lamp": "lamp", "tv": "tv", "exhaust fan": "fan"}
-
-
-class RealDataError(HomecogError):
-    """A data folder that cannot be read as the MIT home-activity format."""
 
 
 def slug(text: str) -> str:

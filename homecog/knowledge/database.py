@@ -22,10 +22,6 @@ from homecog.paths import data_dir
 CONNECT_TIMEOUT = 10  # seconds to wait for a database server (unless the URL says connect_timeout)
 
 
-class ConflictError(StoreError):
-    """A transaction the server aborted for a deadlock or a serialization failure: retry it."""
-
-
 def is_conflict(e: DBAPIError) -> bool:
     """Whether a database error is a deadlock or serialization failure (worth a retry)."""
     orig = e.orig

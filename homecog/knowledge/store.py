@@ -28,12 +28,11 @@ from sqlalchemy import delete, func, insert, select, text, update
 from sqlalchemy.engine import Connection
 from sqlalchemy.exc import DBAPIError, OperationalError, SQLAlchemyError
 
-from homecog.errors import StoreError
+from homecog.errors import ConflictError, StoreError
 from homecog.home.codec import Point
 from homecog.home.model import Home
 from homecog.knowledge import sample_log
 from homecog.knowledge.database import (
-    ConflictError,
     db_message,
     default_url,
     is_conflict,

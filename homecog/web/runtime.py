@@ -23,7 +23,7 @@ import orjson
 
 from homecog.context import ContextSource
 from homecog.context.simulated import SimulatedHome
-from homecog.errors import ContextError, HomecogError, PlanningError
+from homecog.errors import ContextError, FixedContextError, PlanningError
 from homecog.home.clock import format_clock
 from homecog.home.codec import Space, parse_services
 from homecog.home.model import Home, format_number
@@ -35,10 +35,6 @@ from homecog.simulation.body import SimulatedRobot
 from homecog.web.models import json_context
 
 log = logging.getLogger("homecog.web")
-
-
-class FixedContextError(HomecogError):
-    """The context comes from a source that cannot be set by hand (a broker)."""
 
 
 class ManualSource:
@@ -227,7 +223,7 @@ class Runtime:
         except PlanningError as e:  # the user at no place of the layout, say: the robot waits
             log.warning("the robot cannot plan %s: %s", ", ".join(todo), e)
             return None
-        log.info("the robot did %s", " ".join(" ".join(a) for a in result.done) or "nothing")
+        log.info("the robot did: %s", "; ".join(" ".join(a) for a in result.done) or "nothing")
         self.acted = result
         return result
 

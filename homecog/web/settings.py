@@ -17,7 +17,7 @@ from __future__ import annotations
 from pydantic import Field, ValidationError
 from pydantic_settings import BaseSettings, SettingsConfigDict
 
-from homecog.errors import HomecogError
+from homecog.errors import SettingsError
 
 MAX_BODY = 64 * 1024
 
@@ -55,7 +55,3 @@ class Settings(BaseSettings):
             first = e.errors()[0]
             name = ".".join(str(p) for p in first["loc"])
             raise SettingsError(f"{name} (or $HOMECOG_{name.upper()}): {first['msg'].lower()}") from None
-
-
-class SettingsError(HomecogError):
-    """A setting that is out of range."""

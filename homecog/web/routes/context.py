@@ -4,11 +4,10 @@ from typing import Any
 
 from fastapi import APIRouter, HTTPException
 
-from homecog.errors import ContextError
+from homecog.errors import ContextError, FixedContextError
 from homecog.web.deps import RuntimeDep
 from homecog.web.errors import responses
 from homecog.web.models import HomeModels
-from homecog.web.runtime import FixedContextError
 
 
 def router(models: HomeModels) -> APIRouter:
