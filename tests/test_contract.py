@@ -207,7 +207,7 @@ def test_schemathesis_finds_nothing(studio_built, tmp_path, token):
         config = Path(__file__).parent / "schemathesis.toml"  # reads one event of the endless stream
         command = [sys.executable, "-m", "schemathesis.cli", "--config-file", str(config), "run"]
         command += [f"{base}/openapi.json"]
-        command += ["--checks", "all", "--max-examples", "80", "--seed", "12", "--request-timeout", "5"]
+        command += ["--checks", "all", "--max-examples", "80", "--seed", "12", "--request-timeout", "30"]
         command += ["--report", "junit", "--report-junit-path", str(report), "--no-color"]
         if token:
             command += ["--header", f"Authorization: Bearer {token}"]

@@ -55,6 +55,10 @@ class Instance:
         return self.server.owner_token
 
 
+# one Home Assistant for the session: every test of it on the same worker
+pytestmark = pytest.mark.xdist_group("home_assistant")
+
+
 @pytest.fixture(scope="session")
 def ha(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Instance]:
     hass, why = hass_binary()

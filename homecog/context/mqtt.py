@@ -88,7 +88,7 @@ def parse_url(url: str) -> BrokerAddress:
     >>> parse_url("http://x")
     Traceback (most recent call last):
     ...
-    homecog.context.mqtt.MqttError: MQTT URL 'http://x': unknown scheme 'http'; expected mqtt:// or mqtts://
+    homecog.errors.MqttError: MQTT URL 'http://x': unknown scheme 'http'; expected mqtt:// or mqtts://
     """
     try:
         parts = urlsplit(str(url).strip())
