@@ -72,3 +72,9 @@ class FixedContextError(HomecogError):
 
 class SettingsError(HomecogError):
     """A setting of the server that is out of range."""
+
+
+class CommandError(HomecogError):
+    """A command that could not carry an action out in the world: a switch whose broker is
+    gone, a door that is closed, an object that is not where the robot believed it. Acting
+    observes the world again and plans anew when one fails."""

@@ -27,7 +27,8 @@ SERVICES = ["SendDrinks", "TurnOnLamp", "CloseWindow", "ChargeItSelf"]
 
 @pytest.fixture(scope="module")
 def run(paper: Home):
-    return simulate(paper, plan_services(paper, SERVICES, user="sofa").actions)
+    plan = plan_services(paper, SERVICES, user="sofa")
+    return simulate(paper, plan.actions, state=plan.start)
 
 
 @pytest.fixture(scope="module")

@@ -270,6 +270,10 @@ def test_cli_simulate(capsys, tmp_path):
     assert data["distance_m"] > straight
     assert main(["simulate", "--services", "CloseWindow", "--png", str(tmp_path)]) == 2
     assert "is a directory" in capsys.readouterr().err
+    # the simulation starts from the plan's state: the drink goes to the bed the context names
+    context = ",".join(f"{k}={v}" for k, v in paper_context(location="bed").items())
+    assert main(["simulate", "--services", "SendDrinks", "--context", context, "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["actions"][-2] == ["move", "dispenser", "bed"]
 
 
 def test_home_check_finds_a_place_the_robot_cannot_reach(capsys, tmp_path):

@@ -15,9 +15,10 @@ import pytest
 from homecog.errors import HomeFileError, PlanningError
 from homecog.home import Home, load_home_text
 from homecog.home.layout import Layout
-from homecog.planning import plan_services
+from homecog.planning import initial_state, make_domain, plan_services
 from homecog.simulation import (
     DiffDrive,
+    Simulation,
     SimulationResult,
     action_seconds,
     draw_trajectory,
@@ -225,11 +226,9 @@ def test_zero_length_move_takes_no_time(paper: Home) -> None:
 
 
 def test_times_add_up(paper: Home) -> None:
-    plan = plan_services(
-        paper, ["SendDrinks", "TurnOnLight", "CallToWakeup", "ChargeItSelf"], user="bed"
-    ).actions
-    plan = [*plan, ("move", "charger", "lamp"), ("switch_by_hand", "lamp", "off")]
-    result = simulate(paper, plan)
+    planned = plan_services(paper, ["SendDrinks", "TurnOnLight", "CallToWakeup", "ChargeItSelf"], user="bed")
+    plan = [*planned.actions, ("move", "charger", "lamp"), ("switch_by_hand", "lamp", "off")]
+    result = simulate(paper, plan, state=planned.start)  # the user is in bed
     timeline = result.timeline
     assert [row["index"] for row in timeline] == list(range(1, len(plan) + 1))
     assert [tuple(row["action"]) for row in timeline] == [tuple(a) for a in plan]
@@ -290,11 +289,48 @@ def test_holding_follows_pick_and_hand_over(paper: Home) -> None:
         ([("switch_by_hand", "lamp", "on")], "the robot is at 'charger', not at 'lamp'"),
         ([("switch_iot", "toaster", "on")], "unknown device 'toaster'"),
         ([("switch_iot", "lamp", "dim")], "expected 'on' or 'off', got 'dim'"),
+        ([("switch_iot", "lamp", "on")], r"action 1 .*: 'lamp' has no IoT switch"),
+        ([("pick", "cake", "charger")], "unknown object 'cake'; the layout has cup"),
+        ([("hand_over", "cup", "bob")], "unknown person 'bob'; expected 'user'"),
     ],
 )
 def test_bad_actions_are_planning_errors(paper: Home, plan: list[tuple[str, ...]], message: str) -> None:
     with pytest.raises(PlanningError, match=message):
         simulate(paper, plan)
+
+
+def test_the_domain_says_what_an_action_needs(paper: Home) -> None:
+    """The simulator applies the planning domain's actions: the user must be where the robot
+    hands over, the object where it is picked; the reason is the domain's."""
+    plan = plan_services(paper, ["SendDrinks"], user="sofa")
+    assert simulate(paper, plan.actions, state=plan.start).state.objects == {"cup": "sofa"}
+    message = "action 5 ('hand_over', 'cup', 'user'): the robot is at 'sofa', not with the user at 'bed'"
+    with pytest.raises(PlanningError) as e:
+        simulate(paper, plan.actions, state=plan.start, user="bed")
+    assert str(e.value) == message
+    moved = plan.start.copy()
+    moved.objects["cup"] = "table"
+    with pytest.raises(PlanningError) as e:
+        simulate(paper, plan.actions, state=moved)
+    assert str(e.value) == "action 2 ('pick', 'cup', 'dispenser'): 'cup' is not at 'dispenser'"
+    assert make_domain(paper).why_not(moved, ("pick", "cup", "table")) == (
+        "the robot is at 'charger', not at 'table'"
+    )
+
+
+def test_a_simulation_runs_one_action_at_a_time(paper: Home) -> None:
+    sim = Simulation(paper, initial_state(paper, user="bed"))
+    sim.run(("move", "charger", "bed"))
+    with pytest.raises(
+        PlanningError, match=r"action 2 \('pick', 'cup', 'dispenser'\): the robot is at 'bed'"
+    ):
+        sim.run(("pick", "cup", "dispenser"))
+    sim.run(("speak", "hello there"))  # the failed action left no trace
+    result = sim.result()
+    assert [row["index"] for row in result.timeline] == [1, 2]
+    assert result.actions == [("move", "charger", "bed"), ("speak", "hello there")]
+    assert result.seconds == pytest.approx(result.timeline[0]["end"] + 1.8)
+    assert result.state == sim.state and result.state.robot == "bed"
 
 
 def test_unknown_start_device_is_an_error(paper: Home) -> None:
@@ -339,8 +375,11 @@ def test_home_without_a_layout_cannot_be_simulated() -> None:
 
 # -- the drawing ----------------------------------------------------------------------------------
 def test_drawing_is_a_png(paper: Home, tour_result: SimulationResult, tmp_path: Path) -> None:
-    plan = plan_services(paper, ["SendDrinks", "CallToWakeup", "ChargeItSelf"], user="bed").actions
-    for name, result in [("plan.png", simulate(paper, plan)), ("tour.png", tour_result)]:
+    plan = plan_services(paper, ["SendDrinks", "CallToWakeup", "ChargeItSelf"], user="bed")
+    for name, result in [
+        ("plan.png", simulate(paper, plan.actions, state=plan.start)),
+        ("tour.png", tour_result),
+    ]:
         path = draw_trajectory(paper.layout, result, tmp_path / "figures" / name)
         data = path.read_bytes()
         assert data[:8] == b"\x89PNG\r\n\x1a\n"

@@ -3,15 +3,18 @@
 from __future__ import annotations
 
 import json
+import logging
 from pathlib import Path
 
 import pytest
 from fastapi.testclient import TestClient
 from webserver import LAYOUT
 
+from homecog.errors import ContextError
 from homecog.home import load_home_text
 from homecog.knowledge.pipeline import build
 from homecog.knowledge.store import Store
+from homecog.planning.acting import Failure
 from homecog.web.fastpath import MAX_BODY
 from homecog.web.main import create_app
 from homecog.web.models import json_context
@@ -260,3 +263,78 @@ def test_the_simulated_home_lives_and_the_robot_acts(built):
     iot = {d.name for d in home.devices if d.iot}
     for device, on in switched.items():
         assert rt.context()[device] == ("on" if on else "off") or device not in iot
+
+
+class BrokerGone:
+    """A context source's switch behind a broker that is gone for ``device``: for the first
+    ``failures`` commands, or for good (None)."""
+
+    device = "radio"
+    failures: int | None = None
+
+    def switch(self, device: str, on: bool) -> None:
+        if device == self.device and (self.failures is None or self.failures > 0):
+            self.failures = None if self.failures is None else self.failures - 1
+            raise ContextError("the broker is gone")
+        super().switch(device, on)  # type: ignore[misc]
+
+
+def test_the_robot_acts_through_the_planner_and_replans_a_failed_switch(built, caplog):
+    from homecog.context.simulated import SimulatedHome
+
+    class FlakyHome(BrokerGone, SimulatedHome):
+        failures = 1
+
+    home, store, _ = built
+    source = FlakyHome(home, start="2021-06-21 09:00")
+    rt = Runtime(home=home, store=store, tree=store.load_tree(), source=source)
+    now = source.snapshot()
+    with caplog.at_level(logging.INFO):
+        result = rt.act(now, ["LampOn", "RadioOn", "BringTea"])
+    assert result is rt.acted and result.achieved and result.replans == 1
+    assert result.failures == [Failure(("switch_iot", "radio", "on"), "ContextError: the broker is gone", 1)]
+    assert result.done == [
+        ("move", "desk", "studio"),  # the desk lamp has no IoT switch: the robot's body does it
+        ("switch_by_hand", "desk_lamp", "on"),
+        ("switch_iot", "radio", "on"),
+        ("move", "studio", "desk"),  # to the user, who is at the first place
+        ("speak", "bring tea"),
+    ]
+    assert source.snapshot()["desk_lamp"] == "on" and source.snapshot()["radio"] == "on"
+    assert rt.body.world.robot == "desk" and rt.body.simulation.result().actions == result.done
+    assert "plan 1: ('switch_iot', 'radio', 'on') failed: ContextError: the broker is gone" in caplog.messages
+    # once per change of the home, and an errand once while it stays proposed
+    assert rt.act(now, ["LampOn", "RadioOn", "BringTea"]) is None
+    assert rt.act(source.snapshot(), ["LampOn", "RadioOn", "BringTea"]) is None
+    assert rt.act(source.snapshot(), ["LampOff"]).done == [
+        ("move", "desk", "studio"),
+        ("switch_by_hand", "desk_lamp", "off"),
+    ]
+
+
+def test_a_switch_that_keeps_failing_is_logged_not_raised(built, caplog):
+    class BrokenBroker(BrokerGone, ManualSource):
+        pass
+
+    home, store, _ = built
+    source = BrokenBroker(home)
+    source.set_context({"time": "10:00", "light": "50", "activity": "relax"})
+    rt = Runtime(home=home, store=store, tree=store.load_tree(), source=source)
+    assert rt.body is None  # no simulated robot: IoT switches only
+    result = rt.act(source.snapshot(), ["RaiseBlind", "RadioOn", "LampOn", "BringTea"])
+    assert result.tasks == [("RaiseBlind",), ("RadioOn",)]  # the lamp and the tea need a body
+    assert result.done == [("switch_iot", "blind", "on")] and not result.achieved
+    assert [f.plan for f in result.failures] == [1, 2, 3] and result.replans == 2
+    assert result.reason.startswith("gave up after 3 plans; the last: plan 3: ('switch_iot', 'radio', 'on')")
+    assert source.snapshot()["blind"] == "on" and source.snapshot()["radio"] == "off"
+    proposed = rt.tree.predict_one(rt.space.point(source.snapshot()))
+    assert "RadioOn" in proposed
+    caplog.clear()
+    with caplog.at_level(logging.WARNING, logger="homecog.planning.acting"):
+        rt.tick(0)  # the home changed (the blind): the robot tries the radio again; the tick goes on
+    assert rt.acted.tasks == [("RadioOn",)] and rt.acted.done == [] and not rt.acted.achieved
+    failed = "('switch_iot', 'radio', 'on') failed: ContextError: the broker is gone"
+    assert caplog.messages == [
+        *(f"plan {n}: {failed}" for n in (1, 2, 3)),
+        f"acting: gave up after 3 plans; the last: plan 3: {failed}",
+    ]

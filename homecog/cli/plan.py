@@ -80,7 +80,7 @@ def simulate(
     if bag is not None:
         check_bag_folder(bag)
     result = _plan(h, services, context)
-    sim = run_simulation(h, result.actions, devices=_initial_devices(h, context))
+    sim = run_simulation(h, result.actions, state=result.start)
     data = sim.as_dict()
     data["png"] = None
     if png is not None:
@@ -102,14 +102,3 @@ def simulate(
         stdout.print(f"trajectory: {png}")
     if bag is not None:
         stdout.print(f"ROS 2 bag: {bag}")
-
-
-def _initial_devices(h: Home, context: str | None) -> dict[str, bool]:
-    """The device states before the plan: from the context, else all off."""
-    if context is None:
-        return {d.name: False for d in h.devices}
-    from homecog.home.codec import Space, parse_context
-    from homecog.planning import initial_state
-
-    space = Space(h)
-    return initial_state(h, space.context(parse_context(context, space))).devices

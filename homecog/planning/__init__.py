@@ -17,47 +17,24 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 
 from homecog.errors import PlanningError
-from homecog.home.model import Home, parse_state
-from homecog.planning.domain import State, make_domain
+from homecog.home.model import Home
+from homecog.planning.acting import Acting, act
+from homecog.planning.domain import make_domain
 from homecog.planning.planner import Domain, Plan, TaskNode, find_plan
+from homecog.planning.state import State, initial_state
 
 __all__ = [
+    "Acting",
     "Domain",
     "Plan",
     "State",
     "TaskNode",
+    "act",
     "find_plan",
     "initial_state",
     "make_domain",
     "plan_services",
 ]
-
-
-def initial_state(
-    home: Home, context: Mapping[str, object] | None = None, *, user: str | None = None
-) -> State:
-    """The planning state of a home: the robot at its start place, objects where the layout
-    puts them, devices as the context says (off where it says nothing), and the user at the
-    place named by ``user``, else by the context's ``location``, else at the first place
-    that is a value of a context feature."""
-    layout = home.layout
-    if layout is None:
-        raise PlanningError(f"home {home.name!r} has no layout; add a layout section to plan (SPEC §8)")
-    context = context or {}
-    devices = {}
-    for d in home.devices:
-        value = context.get(d.name, False)
-        devices[d.name] = value if isinstance(value, bool) else parse_state(value)
-    if user is None and "location" in context:
-        user = str(context["location"])
-        if not layout.has_place(user):
-            raise PlanningError(f"the user's location {user!r} is not a place or room of the layout")
-    if user is None:
-        values = [v for f in home.features if f.is_discrete for v in f.values]
-        user = next((v for v in values if layout.has_place(v)), layout.robot)
-    elif not layout.has_place(user):
-        raise PlanningError(f"unknown place {user!r} for the user; the layout has {', '.join(layout.places)}")
-    return State(robot=layout.robot, user=user, objects=dict(layout.objects), devices=devices)
 
 
 def plan_services(

@@ -1,8 +1,11 @@
-"""The HTN domain of a home's services (SPEC §8; the paper's §3.3, Fig. 7), derived from its
-devices (``iot``), services and layout, so that any home with a layout plans.
+"""The HTN domain of a home's services (SPEC §8; the paper's §3.3, Fig. 7), written once as data
+(:mod:`homecog.planning.schema`) and derived from the home's devices (``iot``), services and
+layout, so that any home with a layout plans. The planner's Python functions
+(:mod:`homecog.planning.compile`) and the HDDL export (:mod:`homecog.planning.hddl`) are both
+generated from it.
 
-The planning state holds the robot's place, what it holds, where each object is, where the
-user is and the device states. Atomic actions:
+The planning state (:class:`~homecog.planning.state.State`) holds the robot's place, what it
+holds, where each object is, where the user is and the device states. Atomic actions:
 
 ========================  ==================================================================
 ``move from to``          the robot goes from one place to another
@@ -30,38 +33,155 @@ Compound tasks and their methods, tried in order:
 >>> plan.actions
 [('move', 'charger', 'dispenser'), ('pick', 'cup', 'dispenser'), ('pour', 'cup', 'dispenser'), \
 ('move', 'dispenser', 'sofa'), ('hand_over', 'cup', 'user')]
+>>> domain = make_domain(load_home("paper"))
+>>> domain.why_not(plan.start, ("pick", "cup", "dispenser"))
+"the robot is at 'charger', not at 'dispenser'"
 """
 
 from __future__ import annotations
 
+import functools
 import re
-from dataclasses import dataclass, field
 from typing import Any
 
-from homecog.home.layout import Layout
 from homecog.home.model import Home
-from homecog.planning.planner import Domain, Method, Task
+from homecog.planning.compile import compile_domain
+from homecog.planning.planner import Domain
+from homecog.planning.schema import (
+    SETTINGS,
+    ActionSchema,
+    MethodSchema,
+    TaskSchema,
+    action,
+    method,
+    parse_params,
+)
+from homecog.planning.state import HELD, USER, State
 
-USER = "user"
+__all__ = [
+    "ACTIONS",
+    "METHODS",
+    "TASKS",
+    "USER",
+    "State",
+    "make_domain",
+    "on_off",
+    "service_methods",
+    "words",
+]
 
+AT = "the robot is at {s.robot!r}, not at {%s!r}"
+SWITCH = ("(when (= ?setting on) (is-on ?device))", "(when (= ?setting off) (not (is-on ?device)))")
 
-@dataclass
-class State:
-    """The planning state: places are names of layout places (or rooms)."""
+ACTIONS: tuple[ActionSchema, ...] = (
+    action(
+        "move",
+        "?origin - place ?target - place",
+        pre=[("(robot-at ?origin)", AT % "origin")],
+        effects=["(robot-at ?target)", "(not (robot-at ?origin))", "(not (docked))"],
+        # a move to where the robot is stays in the plan (the robot still has to make sure),
+        # but would delete and add (robot-at p) at once, which Aries takes for a conflict
+        variants=[("move", {}), ("stay", {"?target": "?origin"})],
+    ),
+    action(
+        "pick",
+        "?obj - item ?place - place",
+        pre=[
+            ("(robot-at ?place)", AT % "place"),
+            ("(hand-empty)", "the robot already holds {s.holding!r}"),
+            ("(at ?obj ?place)", "{obj!r} is not at {place!r}"),
+        ],
+        effects=["(holding ?obj)", "(not (hand-empty))", "(not (at ?obj ?place))"],
+    ),
+    action(
+        "pour",
+        "?obj - item ?place - place",
+        pre=[
+            ("(holding ?obj)", "the robot holds {s.holding!r}, not {obj!r}"),
+            ("(robot-at ?place)", AT % "place"),
+        ],
+    ),
+    action(
+        "hand_over",
+        "?obj - item ?who - person",
+        lets=["(user-at ?who ?where)"],
+        pre=[
+            ("(holding ?obj)", "the robot holds {s.holding!r}, not {obj!r}"),
+            ("(robot-at ?where)", "the robot is at {s.robot!r}, not with the user at {where!r}"),
+        ],
+        effects=["(not (holding ?obj))", "(hand-empty)", "(at ?obj ?where)"],
+    ),
+    action("speak", "?text - message"),
+    action(
+        "switch_iot",
+        "?device - device ?setting - setting",
+        pre=[("(iot ?device)", "{device!r} has no IoT switch")],
+        effects=SWITCH,
+        # HDDL's effects may not depend on an argument without conditional effects
+        variants=[("switch-iot-on", {"?setting": "on"}), ("switch-iot-off", {"?setting": "off"})],
+    ),
+    action(
+        "switch_by_hand",
+        "?device - device ?setting - setting",
+        lets=[("(device-at ?device ?where)", "device {device!r} has no place or room in the layout")],
+        pre=[("(robot-at ?where)", AT % "where")],
+        effects=SWITCH,
+        variants=[("switch-by-hand-on", {"?setting": "on"}), ("switch-by-hand-off", {"?setting": "off"})],
+    ),
+    action("dock", "?place - place", pre=[("(robot-at ?place)", AT % "place")], effects=["(docked)"]),
+)
 
-    robot: str
-    user: str
-    holding: str | None = None
-    objects: dict[str, str] = field(default_factory=dict)  # object -> place (or "robot")
-    devices: dict[str, bool] = field(default_factory=dict)
-    docked: bool = False
+TASKS: tuple[TaskSchema, ...] = (
+    TaskSchema("goto", parse_params("?place - place")),
+    TaskSchema("switch", parse_params("?device - device ?setting - setting")),
+    TaskSchema("fetch", parse_params("?obj - item")),
+    TaskSchema("fill", parse_params("?obj - item")),
+    TaskSchema("deliver", parse_params("?obj - item")),
+)
 
-    def copy(self) -> State:
-        return State(self.robot, self.user, self.holding, dict(self.objects), dict(self.devices), self.docked)
+# Methods read the state when they are decomposed (left to right), so goto moves from wherever
+# the robot really is; they are tried in this order.
+METHODS: tuple[MethodSchema, ...] = (
+    method("goto", "goto", lets=["(robot-at ?here)"], subtasks=[("move", "?here", "?place")]),
+    method("by_iot", "switch", pre=["(iot ?device)"], subtasks=[("switch_iot", "?device", "?setting")]),
+    method(
+        "by_hand",
+        "switch",
+        lets=["(device-at ?device ?where)"],
+        subtasks=[("goto", "?where"), ("switch_by_hand", "?device", "?setting")],
+    ),
+    method("fetch_held", "fetch", pre=["(holding ?obj)"]),
+    method(
+        "fetch_from_place",
+        "fetch",
+        lets=["(at ?obj ?where)"],
+        pre=["(hand-empty)"],
+        subtasks=[("goto", "?where"), ("pick", "?obj", "?where")],
+    ),
+    method(
+        "fill_here",
+        "fill",
+        lets=["(source ?obj ?src)"],
+        pre=["(robot-at ?src)"],
+        subtasks=[("pour", "?obj", "?src")],
+    ),
+    method(
+        "fill_at_source",
+        "fill",
+        lets=["(source ?obj ?src)"],
+        subtasks=[("goto", "?src"), ("pour", "?obj", "?src")],
+    ),
+    method(
+        "deliver_to_user",
+        "deliver",
+        lets=[f"(user-at {USER} ?where)"],
+        subtasks=[("goto", "?where"), ("hand_over", "?obj", USER)],
+    ),
+)
 
 
 def on_off(value: bool) -> str:
-    return "on" if value else "off"
+    return SETTINGS[0] if value else SETTINGS[1]
 
 
 def words(service: str) -> str:
@@ -69,150 +189,107 @@ def words(service: str) -> str:
     return " ".join(w.lower() for w in re.findall(r"[A-Z]+(?![a-z])|[A-Z]?[a-z]+|\d+", service)) or service
 
 
-# -- actions: (state, *args) -> state | None ------------------------------------------------
-def move(s: State, origin: str, target: str) -> State | None:
-    if s.robot != origin:
-        return None
-    s.robot, s.docked = target, False
-    return s
-
-
-def pick(s: State, obj: str, place: str) -> State | None:
-    if s.robot != place or s.holding is not None or s.objects.get(obj) != place:
-        return None
-    s.holding, s.objects[obj] = obj, "robot"
-    return s
-
-
-def pour(s: State, obj: str, place: str) -> State | None:
-    return s if s.holding == obj and s.robot == place else None
-
-
-def hand_over(s: State, obj: str, who: str) -> State | None:
-    if s.holding != obj or s.robot != s.user or who != USER:
-        return None
-    s.holding, s.objects[obj] = None, s.user
-    return s
-
-
-def speak(s: State, text: str) -> State | None:
-    return s
-
-
-def dock(s: State, place: str) -> State | None:
-    if s.robot != place:
-        return None
-    s.docked = True
-    return s
-
-
-def _switch_action(home: Home, layout: Layout | None, by_hand: bool) -> Any:
-    iot = {d.name: d.iot for d in home.devices}
-
-    def switch_iot(s: State, device: str, state: str) -> State | None:
-        if not iot.get(device, False):
-            return None
-        s.devices[device] = state == "on"  # switching to the state it is in still happens
-        return s
-
-    def switch_by_hand(s: State, device: str, state: str) -> State | None:
-        if device not in iot or layout is None or s.robot != layout.device_place(device):
-            return None
-        s.devices[device] = state == "on"
-        return s
-
-    return switch_by_hand if by_hand else switch_iot
-
-
-# -- methods: (state, *args) -> subtasks | None ---------------------------------------------
-def goto(s: State, place: str) -> list[Task]:
-    return [("move", s.robot, place)]
-
-
-def _make_methods(home: Home, layout: Layout | None) -> dict[str, list[Method]]:
-    iot = {d.name: d.iot for d in home.devices}
-
-    def by_iot(s: State, device: str, state: str) -> list[Task] | None:
-        return [("switch_iot", device, state)] if iot[device] else None
-
-    def by_hand(s: State, device: str, state: str) -> list[Task] | None:
-        if layout is None:
-            return None
-        return [("goto", layout.device_place(device)), ("switch_by_hand", device, state)]
-
-    def fetch_held(s: State, obj: str) -> list[Task] | None:
-        return [] if s.holding == obj else None
-
-    def fetch_from_place(s: State, obj: str) -> list[Task] | None:
-        where = s.objects.get(obj)
-        if where is None or where == "robot" or s.holding is not None:
-            return None
-        return [("goto", where), ("pick", obj, where)]
-
-    def fill_here(s: State, obj: str) -> list[Task] | None:
-        source = layout.objects.get(obj) if layout is not None else None
-        return [("pour", obj, source)] if source is not None and s.robot == source else None
-
-    def fill_at_source(s: State, obj: str) -> list[Task] | None:
-        source = layout.objects.get(obj) if layout is not None else None
-        return None if source is None else [("goto", source), ("pour", obj, source)]
-
-    def deliver_to_user(s: State, obj: str) -> list[Task]:
-        return [("goto", s.user), ("hand_over", obj, USER)]
-
-    methods: dict[str, list[Method]] = {
-        "goto": [goto],
-        "switch": [by_iot, by_hand],
-        "fetch": [fetch_held, fetch_from_place],
-        "fill": [fill_here, fill_at_source],
-        "deliver": [deliver_to_user],
-    }
+def service_methods(home: Home) -> tuple[MethodSchema, ...]:
+    """The one method of each service's task, in the home's order."""
+    layout = home.layout
+    out = []
     for service in home.services:
-        methods[service.name] = [_service_method(service.name, service.sets, layout)]
-    return methods
+        errand = layout.errand(service.name) if layout is not None else None
+        out.append(
+            _service_method(
+                service.name,
+                service.sets,
+                *(
+                    (errand.bring, errand.pour, errand.dock, errand.say)
+                    if errand is not None
+                    else (None, False, None, None)
+                ),
+            )
+        )
+    return tuple(out)
 
 
-def _service_method(name: str, sets: tuple[tuple[str, bool], ...], layout: Layout | None) -> Method:
+@functools.lru_cache(maxsize=4096)  # the same schema object for the same service (compile.py)
+def _service_method(
+    name: str,
+    sets: tuple[tuple[str, bool], ...],
+    bring: str | None,
+    pour: bool,
+    dock: str | None,
+    say: str | None,
+) -> MethodSchema:
     if sets:
+        return method("switch_devices", name, subtasks=[("switch", d, on_off(value)) for d, value in sets])
+    if bring is not None:
+        subtasks = [("fetch", bring), *([("fill", bring)] if pour else []), ("deliver", bring)]
+        return method("bring", name, subtasks=subtasks)
+    if dock is not None:
+        return method("go_and_dock", name, subtasks=[("goto", dock), ("dock", dock)])
+    text = say if say is not None else words(name)
+    lets = [f"(user-at {USER} ?where)"]
+    return method("go_and_speak", name, lets=lets, subtasks=[("goto", "?where"), ("speak", text)])
 
-        def switch_devices(s: State) -> list[Task]:
-            return [("switch", device, on_off(value)) for device, value in sets]
 
-        return switch_devices
-    errand = layout.errand(name) if layout is not None else None
-    if errand is not None and errand.bring is not None:
-        obj, fill = errand.bring, errand.pour
+def service_tasks(home: Home) -> tuple[TaskSchema, ...]:
+    return tuple(_service_task(s.name) for s in home.services)
 
-        def bring(s: State) -> list[Task]:
-            return [("fetch", obj), *([("fill", obj)] if fill else []), ("deliver", obj)]
 
-        return bring
-    if errand is not None and errand.dock is not None:
-        place = errand.dock
+@functools.lru_cache(maxsize=4096)
+def _service_task(name: str) -> TaskSchema:
+    return TaskSchema(name)
 
-        def go_and_dock(s: State) -> list[Task]:
-            return [("goto", place), ("dock", place)]
 
-        return go_and_dock
-    text = errand.say if errand is not None and errand.say is not None else words(name)
+def tables(home: Home) -> dict[str, Any]:
+    """The home's constants and tables the domain's functions read, and the checks of each
+    type of argument (a reason, or ``None`` for a fitting value)."""
+    layout = home.layout
+    devices = home.device_names
+    device_place = {}
+    for d in devices:
+        try:
+            device_place[d] = layout.device_place(d) if layout is not None else None
+        except KeyError:  # an IoT device without a place is never switched by hand
+            device_place[d] = None
+    places = [*layout.places, *layout.rooms] if layout is not None else []
+    objects = list(layout.objects) if layout is not None else []
+    known_devices, known_places = set(devices), set(places)
 
-    def go_and_speak(s: State) -> list[Task]:
-        return [("goto", s.user), ("speak", text)]
+    def check_place(x: str) -> str | None:
+        return None if x in known_places else f"unknown place {x!r}; the layout has {', '.join(places)}"
 
-    return go_and_speak
+    def check_device(x: str) -> str | None:
+        return None if x in known_devices else f"unknown device {x!r}; the home has {', '.join(devices)}"
+
+    def check_item(x: str) -> str | None:
+        return (
+            None if x in objects else f"unknown object {x!r}; the layout has {', '.join(objects) or 'none'}"
+        )
+
+    def check_person(x: str) -> str | None:
+        return None if x == USER else f"unknown person {x!r}; expected {USER!r}"
+
+    def check_setting(x: str) -> str | None:
+        return None if x in SETTINGS else f"expected 'on' or 'off', got {x!r}"
+
+    return {
+        "HELD": HELD,
+        "USER": USER,
+        "IOT": frozenset(d.name for d in home.devices if d.iot),
+        "DEVICE_PLACE": {d: p for d, p in device_place.items() if p is not None},
+        "SOURCE": dict(layout.objects) if layout is not None else {},
+        "CHECK": {
+            "place": check_place,
+            "device": check_device,
+            "item": check_item,
+            "person": check_person,
+            "setting": check_setting,
+            "message": lambda x: None,
+        },
+    }
 
 
 def make_domain(home: Home) -> Domain:
     """The HTN domain of a home (its layout, if any, gives places for by-hand switching)."""
-    layout = home.layout
-    actions = {
-        "move": move,
-        "pick": pick,
-        "pour": pour,
-        "hand_over": hand_over,
-        "speak": speak,
-        "switch_iot": _switch_action(home, layout, by_hand=False),
-        "switch_by_hand": _switch_action(home, layout, by_hand=True),
-        "dock": dock,
-    }
-    return Domain(name=home.name, actions=actions, methods=_make_methods(home, layout))
+    return compile_domain(
+        home.name, ACTIONS, TASKS + service_tasks(home), METHODS + service_methods(home), tables(home)
+    )

@@ -49,20 +49,48 @@ class PlanState(Protocol):
 
 Action = Callable[..., Any]
 Method = Callable[..., "list[Task] | None"]
+Reason = Callable[..., "str | None"]
 
 
 @dataclass(frozen=True)
 class Domain:
-    """Actions and methods by task name; methods in the order they are tried."""
+    """Actions and methods by task name; methods in the order they are tried. ``reasons``
+    (optional, per action) say why an action does not apply, for those who carry plans out:
+    ``(state, *args) -> str | None``."""
 
     name: str
     actions: Mapping[str, Action]
     methods: Mapping[str, Sequence[Method]]
+    reasons: Mapping[str, Reason] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         both = set(self.actions) & set(self.methods)
         if both:
             raise ValueError(f"names both an action and a compound task: {', '.join(sorted(both))}")
+
+    def why_not(self, state: Any, action: Sequence[str]) -> str | None:
+        """Why ``action`` does not apply in ``state``; ``None`` when it does.
+
+        >>> domain = Domain("toy", actions={"wait": lambda s: s, "stop": lambda s: None}, methods={})
+        >>> [domain.why_not({}, action) for action in [("wait",), ("stop",), ("fly", "home")]]
+        [None, 'it does not apply', "unknown kind 'fly'; expected one of wait, stop"]
+        """
+        kind = action[0] if len(action) else ""
+        if kind not in self.actions:
+            return f"unknown kind {kind!r}; expected one of {', '.join(self.actions)}"
+        reason = self.reasons.get(kind)
+        if reason is not None:
+            return reason(state, *action[1:])
+        return None if self.actions[kind](state.copy(), *action[1:]) is not None else "it does not apply"
+
+    def apply(self, state: Any, action: Sequence[str]) -> Any:
+        """``action`` carried out on a copy of ``state``: the state after it. Raises
+        :class:`PlanningError` saying why when it does not apply."""
+        why = self.why_not(state, action)
+        after = None if why is not None else self.actions[action[0]](state.copy(), *action[1:])
+        if after is None:
+            raise PlanningError(why or "it does not apply")
+        return after
 
 
 @dataclass
@@ -91,12 +119,22 @@ class TaskNode:
 
 @dataclass
 class Plan:
-    """The actions in order, the decomposition tree (one root per requested task) and the
-    state the plan leaves."""
+    """The actions in order, the decomposition tree (one root per requested task), the state
+    the plan leaves and the state it starts from."""
 
     actions: list[Task]
     tree: list[TaskNode]
     state: Any
+    start: Any = None
+
+    def roots(self) -> list[tuple[Task, range]]:
+        """Each requested task with the (0-based) positions of its actions in :attr:`actions`."""
+        out, begin = [], 0
+        for root in self.tree:
+            end = begin + sum(1 for _ in _leaves([root]))
+            out.append((root.task, range(begin, end)))
+            begin = end
+        return out
 
     def outline(self, indent: str = "  ") -> str:
         """The tree indented by level, actions numbered in order (as the paper's Fig. 13c)."""
@@ -127,7 +165,7 @@ def find_plan(domain: Domain, state: PlanState, tasks: Sequence[Task]) -> Plan:
         for end, actions, nodes in _solve(domain, state, list(tasks)):
             for i, node in enumerate(_leaves(nodes), start=1):
                 node.index = i
-            return Plan(actions=actions, tree=nodes, state=end)
+            return Plan(actions=actions, tree=nodes, state=end, start=state.copy())
     finally:
         sys.setrecursionlimit(limit)
     raise PlanningError(f"no plan for {', '.join(' '.join(t) for t in tasks)} in domain {domain.name}")

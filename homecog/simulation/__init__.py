@@ -6,7 +6,7 @@ trajectory is drawn like the paper's Fig. 15.
 >>> from homecog.planning import plan_services
 >>> home = load_home("paper")
 >>> plan = plan_services(home, ["SendDrinks"], user="sofa")
->>> result = simulate(home, plan.actions)
+>>> result = simulate(home, plan.actions, state=plan.start)   # the state the plan was made from
 >>> [row["action"][0] for row in result.timeline]
 ['move', 'pick', 'pour', 'move', 'hand_over']
 >>> result.held is None and result.seconds > 13       # 13 s of work plus the driving
@@ -15,14 +15,16 @@ True
 
 from __future__ import annotations
 
-from homecog.simulation.draw import draw_trajectory
+from typing import Any
+
 from homecog.simulation.grid import OccupancyGrid, occupancy_grid, plan_path
 from homecog.simulation.robot import DiffDrive
-from homecog.simulation.simulate import SimulationResult, action_seconds, simulate
+from homecog.simulation.simulate import Simulation, SimulationResult, action_seconds, simulate
 
 __all__ = [
     "DiffDrive",
     "OccupancyGrid",
+    "Simulation",
     "SimulationResult",
     "action_seconds",
     "draw_trajectory",
@@ -30,3 +32,13 @@ __all__ = [
     "plan_path",
     "simulate",
 ]
+
+
+def __getattr__(name: str) -> Any:
+    # the drawing imports matplotlib (half a second): only for those who draw, not for the
+    # running robot that acts through the simulator
+    if name == "draw_trajectory":
+        from homecog.simulation.draw import draw_trajectory
+
+        return draw_trajectory
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

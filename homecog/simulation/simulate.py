@@ -1,6 +1,8 @@
 """Carrying out a plan on the floor plan (SPEC §8): the robot drives collision-free paths
-between places, every other action takes its time, switches change the devices, and the
-trajectory and a timeline are recorded.
+between places, every other action takes its time, and the trajectory and a timeline are
+recorded. What an action needs and what it changes (the robot is where it picks, holds what it
+hands over; switches change the devices) is the planning domain's own actions applied to a
+planning state: the simulator adds only what is physical.
 
 Durations of the actions other than ``move`` (seconds), after the paper's Fig. 15 run:
 
@@ -31,6 +33,7 @@ import numpy as np
 from homecog.errors import PlanningError
 from homecog.home.layout import Layout
 from homecog.home.model import Home
+from homecog.planning import Domain, State, initial_state, make_domain
 from homecog.simulation.grid import plan_path
 from homecog.simulation.robot import DiffDrive
 
@@ -45,17 +48,6 @@ SECONDS = {
     "dock": 5.0,
 }
 SPEAK_SECONDS, SPEAK_SECONDS_PER_WORD = 1.0, 0.4
-# the number of strings in each kind of action, its kind included
-_ARITY = {
-    "move": 3,
-    "pick": 3,
-    "pour": 3,
-    "hand_over": 3,
-    "speak": 2,
-    "switch_iot": 3,
-    "switch_by_hand": 3,
-    "dock": 2,
-}
 
 
 def action_seconds(action: Action) -> float:
@@ -73,7 +65,7 @@ def action_seconds(action: Action) -> float:
 class SimulationResult:
     """What happened when a plan ran: the per-action timeline, the totals, the trajectory
     (one row ``t, x, y, theta`` per step; still rows where the robot works on the spot), the
-    device states at the end and what the robot holds."""
+    device states at the end, what the robot holds and the planning state it ends in."""
 
     actions: list[tuple[str, ...]]
     timeline: list[dict[str, Any]]
@@ -82,6 +74,7 @@ class SimulationResult:
     trajectory: np.ndarray
     devices: dict[str, bool] = field(default_factory=dict)
     held: str | None = None
+    state: State | None = None
 
     def as_dict(self) -> dict[str, Any]:
         """A JSON-able summary (the trajectory left out)."""
@@ -94,20 +87,116 @@ class SimulationResult:
         }
 
 
+class Simulation:
+    """A plan carried out one action at a time (:meth:`run`), from a planning state: the state
+    now, the clock, the distance driven, the timeline and the trajectory so far.
+
+    >>> from homecog.home import load_home
+    >>> sim = Simulation(load_home("paper"))
+    >>> sim.run(("move", "charger", "dispenser"))["end"] > 0, sim.state.robot
+    (True, 'dispenser')
+    >>> sim.run(("dock", "charger"))
+    Traceback (most recent call last):
+    ...
+    homecog.errors.PlanningError: action 2 ('dock', 'charger'): the robot is at 'dispenser', not at 'charger'
+    """
+
+    def __init__(
+        self,
+        home: Home,
+        state: State | None = None,
+        *,
+        robot: DiffDrive | None = None,
+        domain: Domain | None = None,
+    ) -> None:
+        layout = home.layout
+        if layout is None:
+            raise PlanningError(
+                f"home {home.name!r} has no layout; add a layout section to simulate (SPEC §8)"
+            )
+        self.home, self.layout = home, layout
+        self.robot = robot or DiffDrive()
+        self.domain = domain or make_domain(home)
+        self.state = state.copy() if state is not None else initial_state(home)
+        _check_place(layout, self.state.robot, "the robot's start")
+        x, y = layout.place(self.state.robot)
+        self.clock, self.distance_m = 0.0, 0.0
+        self.actions: list[tuple[str, ...]] = []
+        self.timeline: list[dict[str, Any]] = []
+        self._chunks = [np.array([[0.0, x, y, 0.0]])]
+
+    def run(self, action: Action) -> dict[str, Any]:
+        """Carry out one action and return its row of the timeline. Raises
+        :class:`PlanningError` naming the action and why when it does not apply (the domain's
+        reason: an unknown kind or place, the robot elsewhere, ...) or its path cannot be
+        driven; the simulation is then as it was."""
+        action = tuple(action)
+        index = len(self.timeline) + 1
+        where = f"action {index} {action}"
+        why = self.domain.why_not(self.state, action)
+        if why is not None:
+            raise PlanningError(f"{where}: {why}")
+        kind, distance, begin = action[0], 0.0, self.clock
+        if kind == "move":
+            poses = self.robot.follow(
+                plan_path(self.layout, action[1], action[2], radius=self.robot.radius),
+                theta=float(self._chunks[-1][-1, 3]),
+                t=self.clock,
+            )
+            if len(poses):
+                steps = np.diff(np.vstack([self._chunks[-1][-1:], poses])[:, 1:3], axis=0)
+                distance = float(np.hypot(steps[:, 0], steps[:, 1]).sum())
+                self.clock = round(float(poses[-1, 0]), 6)
+                self._chunks.append(poses)
+        else:
+            self.clock = round(self.clock + action_seconds(action), 6)
+            last = self._chunks[-1][-1]
+            self._chunks.append(np.array([[self.clock, last[1], last[2], last[3]]]))
+        self.state = self.domain.apply(self.state, action)
+        self.distance_m += distance
+        self.actions.append(action)
+        row = {
+            "index": index,
+            "action": list(action),
+            "start": begin,
+            "end": self.clock,
+            "distance_m": distance,
+        }
+        self.timeline.append(row)
+        return row
+
+    def result(self) -> SimulationResult:
+        """What happened so far."""
+        return SimulationResult(
+            actions=list(self.actions),
+            timeline=list(self.timeline),
+            seconds=self.clock,
+            distance_m=self.distance_m,
+            trajectory=np.vstack(self._chunks),
+            devices=dict(self.state.devices),
+            held=self.state.holding,
+            state=self.state.copy(),
+        )
+
+
 def simulate(
     home: Home,
     actions: Sequence[Action],
     *,
+    state: State | None = None,
     devices: Mapping[str, bool] | None = None,
-    robot: DiffDrive | None = None,
+    user: str | None = None,
     start: str | None = None,
+    robot: DiffDrive | None = None,
 ) -> SimulationResult:
     """Run ``actions`` (a plan's atomic actions) on ``home``'s floor plan.
 
-    The robot starts at ``start`` (default: the layout's ``robot`` place) facing +x, the
-    devices as ``devices`` says (off where it says nothing). Raises :class:`PlanningError` for
-    an action of unknown kind or shape, an unknown place or device, an action done somewhere
-    other than where the robot is, and a path that cannot be driven.
+    They start from ``state``, the planning state the plan was made from (``Plan.start``;
+    default: the home's initial state); ``devices`` (off where it says nothing), the user's
+    place ``user`` and the robot's ``start`` place change it. The robot faces +x. Raises
+    :class:`PlanningError` for an action of unknown kind or shape, an unknown place, device or
+    object, an action whose preconditions do not hold where the robot is (the planning
+    domain's reason), and a path that cannot be driven.
 
     >>> from homecog.home import load_home
     >>> plan = [("move", "charger", "dispenser"), ("pick", "cup", "dispenser"), ("dock", "charger")]
@@ -119,101 +208,26 @@ def simulate(
     layout = home.layout
     if layout is None:
         raise PlanningError(f"home {home.name!r} has no layout; add a layout section to simulate (SPEC §8)")
-    robot = robot or DiffDrive()
-    known = [d.name for d in home.devices]
-    state = dict.fromkeys(known, False)
-    for name, value in (devices or {}).items():
-        if name not in state:
-            raise PlanningError(f"unknown device {name!r}; the home has {', '.join(known)}")
-        state[name] = bool(value)
-    at = start if start is not None else layout.robot
-    _check_place(layout, at, "the robot's start")
-    x, y = layout.place(at)
-    chunks = [np.array([[0.0, x, y, 0.0]])]
-    clock, total, held = 0.0, 0.0, None
-    timeline: list[dict[str, Any]] = []
-    plan = [tuple(a) for a in actions]
-
-    for index, action in enumerate(plan, start=1):
-        where = f"action {index} {action}"
-        kind = action[0] if action else ""
-        if kind not in _ARITY:
-            raise PlanningError(f"{where}: unknown kind {kind!r}; expected one of {', '.join(_ARITY)}")
-        if len(action) != _ARITY[kind] or not all(isinstance(a, str) for a in action):
-            raise PlanningError(f"{where}: expected {_ARITY[kind]} strings for {kind}")
-        distance, begin = 0.0, clock
-        if kind == "move":
-            origin, target = action[1], action[2]
-            _check_place(layout, origin, where)
-            _check_place(layout, target, where)
-            _require_at(at, origin, where)
-            poses = robot.follow(
-                plan_path(layout, origin, target, radius=robot.radius),
-                theta=float(chunks[-1][-1, 3]),
-                t=clock,
-            )
-            if len(poses):
-                steps = np.diff(np.vstack([chunks[-1][-1:], poses])[:, 1:3], axis=0)
-                distance = float(np.hypot(steps[:, 0], steps[:, 1]).sum())
-                clock = round(float(poses[-1, 0]), 6)
-                chunks.append(poses)
-            at = target
-        else:
-            if kind == "switch_by_hand":
-                _require_at(at, _device_place(layout, action[1], known, where), where)
-            elif kind in ("pick", "pour", "dock"):
-                _check_place(layout, action[-1], where)
-                _require_at(at, action[-1], where)
-            if kind in ("switch_iot", "switch_by_hand"):
-                device, value = action[1], action[2]
-                if device not in state:
-                    raise PlanningError(
-                        f"{where}: unknown device {device!r}; the home has {', '.join(known)}"
-                    )
-                if value not in ("on", "off"):
-                    raise PlanningError(f"{where}: expected 'on' or 'off', got {value!r}")
-                state[device] = value == "on"
-            elif kind == "pick":
-                if held is not None:
-                    raise PlanningError(f"{where}: the robot already holds {held!r}")
-                held = action[1]
-            elif kind == "hand_over":
-                if held != action[1]:
-                    raise PlanningError(f"{where}: the robot holds {held!r}, not {action[1]!r}")
-                held = None
-            clock = round(clock + action_seconds(action), 6)
-            last = chunks[-1][-1]
-            chunks.append(np.array([[clock, last[1], last[2], last[3]]]))
-        total += distance
-        timeline.append(
-            {"index": index, "action": list(action), "start": begin, "end": clock, "distance_m": distance}
-        )
-    return SimulationResult(
-        actions=plan,
-        timeline=timeline,
-        seconds=clock,
-        distance_m=total,
-        trajectory=np.vstack(chunks),
-        devices=state,
-        held=held,
-    )
+    state = state.copy() if state is not None else initial_state(home, user=user)
+    if user is not None:
+        _check_place(layout, user, "the user's place")
+        state.user = user
+    known = home.device_names
+    if devices is not None:
+        state.devices = dict.fromkeys(known, False)
+        for name, value in devices.items():
+            if name not in state.devices:
+                raise PlanningError(f"unknown device {name!r}; the home has {', '.join(known)}")
+            state.devices[name] = bool(value)
+    if start is not None:
+        state.robot = start
+    simulation = Simulation(home, state, robot=robot)
+    for action in actions:
+        simulation.run(action)
+    return simulation.result()
 
 
 def _check_place(layout: Layout, name: str, where: str) -> None:
     if not layout.has_place(name):
         known = ", ".join([*layout.places, *layout.rooms])
         raise PlanningError(f"{where}: unknown place {name!r}; the layout has {known}")
-
-
-def _require_at(at: str, place: str, where: str) -> None:
-    if place != at:
-        raise PlanningError(f"{where}: the robot is at {at!r}, not at {place!r}")
-
-
-def _device_place(layout: Layout, device: str, known: list[str], where: str) -> str:
-    if device not in known:
-        raise PlanningError(f"{where}: unknown device {device!r}; the home has {', '.join(known)}")
-    try:
-        return layout.device_place(device)
-    except KeyError:
-        raise PlanningError(f"{where}: device {device!r} has no place or room in the layout") from None

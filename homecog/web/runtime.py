@@ -22,13 +22,19 @@ import numpy as np
 import orjson
 
 from homecog.context import ContextSource
-from homecog.errors import ContextError, FixedContextError
+from homecog.context.simulated import SimulatedHome
+from homecog.errors import ContextError, FixedContextError, PlanningError
 from homecog.home.clock import format_clock
 from homecog.home.codec import Space, parse_services
 from homecog.home.model import Home, format_number
 from homecog.knowledge.ihdr import IHDRTree
 from homecog.knowledge.store import Store
+from homecog.planning import Acting, State, acting, make_domain
+from homecog.planning.state import device_states, observed_state
+from homecog.simulation.body import SimulatedRobot
 from homecog.web.models import json_context
+
+log = logging.getLogger("homecog.web")
 
 
 class ManualSource:
@@ -73,11 +79,22 @@ class Runtime:
     source: ContextSource
     lock: threading.Lock = field(default_factory=threading.Lock)
     watchers: list[Callable[[dict[str, str]], object]] = field(default_factory=list)
+    acted: Acting | None = None
+    """What the robot did last (:meth:`act`)."""
     _subscribers: set[asyncio.Queue[tuple[str, object]]] = field(default_factory=set)
-    _sent: dict[str, tuple[dict[str, str], str]] = field(default_factory=dict)
+    _sent: dict[str, dict[str, str]] = field(default_factory=dict)
+    _proposed: set[str] = field(default_factory=set)
 
     def __post_init__(self) -> None:
         self.space = Space(self.home)
+        self.domain = make_domain(self.home)
+        # In the simulated home the robot has a body on the floor plan: it drives, brings,
+        # docks and switches by hand there. A real home (MQTT, Home Assistant) gets IoT switches.
+        self.body = (
+            SimulatedRobot(self.home, switch=self.source.switch, domain=self.domain)
+            if isinstance(self.source, SimulatedHome) and self.home.layout is not None
+            else None
+        )
 
     # -- context ------------------------------------------------------------------------------
     def context(self) -> dict[str, str]:
@@ -132,12 +149,12 @@ class Runtime:
         """The services decomposed into robot actions, in the given order, and the plan carried
         out by the simulated robot on the floor plan: its timeline, time, distance and
         trajectory (``[t, x, y]`` rows, at most 400). :class:`PlanningError` when it cannot be."""
-        from homecog.planning import initial_state, plan_services
+        from homecog.planning import plan_services
         from homecog.simulation import simulate
 
         where = dict(self.space.context(self.space.point(context))) if context else None
         result = plan_services(self.home, services, context=where)
-        sim = simulate(self.home, result.actions, devices=initial_state(self.home, where).devices)
+        sim = simulate(self.home, result.actions, state=result.start)
         simulation = sim.as_dict()
         del simulation["actions"]  # the same as the plan's
         simulation["trajectory"] = _thin(sim.trajectory, 400)
@@ -150,7 +167,7 @@ class Runtime:
     # -- the living home ------------------------------------------------------------------------
     def tick(self, seconds: float, *, act: bool = True, user: str = "default") -> bool:
         """Let a simulated source live ``seconds`` of simulated time; then, if ``act``, the robot
-        carries out the IoT switches of the services it proposes there. True if the context changed."""
+        carries out the services it proposes there (:meth:`act`). True if the context changed."""
         if not getattr(self.source, "ready", True):  # a broker has not sent every state yet
             return False
         advance = getattr(self.source, "advance", None)
@@ -162,18 +179,58 @@ class Runtime:
             point = self.space.point(now)
             with self.lock:
                 proposed = self.tree.predict_one(point, user=user)
-            iot = {d.name for d in self.home.devices if d.iot}
-            for name in proposed:
-                for device, on in self.home.services[self.home.service_index(name)].sets:
-                    wanted = "on" if on else "off"
-                    # one command per change of the home, not one a tick while a device is slow to report
-                    if device in iot and now[device] != wanted and self._sent.get(device) != (now, wanted):
-                        self._sent[device] = (now, wanted)
-                        self.source.switch(device, on)
+            self.act(now, proposed)
         after = self.source.snapshot()
         if after != before:
             self.publish("context", after)
         return after != before
+
+    def act(self, now: Mapping[str, str], proposed: list[str]) -> Acting | None:
+        """Plan the proposed services that have something to do, in their order, and carry the
+        plan out through acting: IoT switches through the context source, and in the simulated
+        home everything else by the simulated robot. A failed command (the source raises) is
+        replanned and logged, never raised. What was done is :attr:`acted` (``None``: nothing
+        to do).
+
+        A service that switches devices is done while one of them is not as it sets it, once
+        per change of the home (not once a tick while a device is slow to report); without a
+        body only by IoT. An errand (bring, dock, say) is done once each time it comes to be
+        proposed, by the body."""
+        iot = {d.name for d in self.home.devices if d.iot}
+        devices = device_states(self.home, now)
+        todo = []
+        for name in proposed:
+            sets = self.home.services[self.home.service_index(name)].sets
+            if sets:
+                pending = any(devices[d] != on for d, on in sets)
+                reachable = self.body is not None or all(d in iot for d, _ in sets)
+                if pending and reachable and self._sent.get(name) != now:
+                    self._sent[name] = dict(now)
+                    todo.append(name)
+            elif self.body is not None and name not in self._proposed:
+                todo.append(name)
+        self._proposed = set(proposed)
+        if not todo:
+            return None
+        try:
+            state = self._observe()
+            commands = acting.iot_commands(self.domain, self.source.switch)
+            if self.body is not None:
+                self.body.start(state)  # a new run on the floor plan, from where the robot is
+                commands = self.body.commands()
+            tasks = [(name,) for name in todo]
+            result = acting.act(self.domain, state, tasks, commands, observe=self._observe)
+        except PlanningError as e:  # the user at no place of the layout, say: the robot waits
+            log.warning("the robot cannot plan %s: %s", ", ".join(todo), e)
+            return None
+        log.info("the robot did: %s", "; ".join(" ".join(a) for a in result.done) or "nothing")
+        self.acted = result
+        return result
+
+    def _observe(self) -> State:
+        """The home as the robot sees it: the source's context and, with a body, where it is."""
+        world = self.body.observe() if self.body is not None else None
+        return observed_state(self.home, self.source.snapshot(), world)
 
     # -- the live event stream -----------------------------------------------------------------
     def subscribe(self) -> asyncio.Queue[tuple[str, object]]:
