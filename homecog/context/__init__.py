@@ -9,7 +9,8 @@ scenario file (``{"time": "07:00", "temperature": "25", "location": "bed", "wind
 
 from __future__ import annotations
 
-from typing import Protocol
+import threading
+from typing import Any, Protocol, Self
 
 
 class ContextSource(Protocol):
@@ -22,3 +23,30 @@ class ContextSource(Protocol):
     def switch(self, device: str, on: bool) -> None:
         """Carry out the robot's IoT command to switch ``device``."""
         ...
+
+
+class ConnectedSource:
+    """What the sources over a network share: a connection that a background thread keeps (set
+    ``_connected`` when it is up), started and stopped as a context manager."""
+
+    _connected: threading.Event
+
+    def start(self) -> Self:
+        raise NotImplementedError
+
+    def stop(self) -> None:
+        raise NotImplementedError
+
+    def __enter__(self) -> Self:
+        return self.start()
+
+    def __exit__(self, *exc: object) -> None:
+        self.stop()
+
+    @property
+    def connected(self) -> bool:
+        """Whether the connection is up now."""
+        return self._connected.is_set()
+
+    def status(self) -> dict[str, Any]:  # pragma: no cover - each source says its own
+        raise NotImplementedError

@@ -48,6 +48,7 @@ from collections.abc import Callable, Mapping
 from datetime import datetime
 from typing import Any
 
+from homecog.context import ConnectedSource
 from homecog.context.ha_client import CONNECT_TIMEOUT, TOKEN_HELP, connect, reason, websocket_url
 from homecog.errors import ContextError, HomeAssistantError
 from homecog.home.clock import format_clock
@@ -66,7 +67,7 @@ MIN_RECONNECT_DELAY = 0.25  # seconds; doubled after each failed attempt ...
 MAX_RECONNECT_DELAY = 2.0  # ... up to this, so the robot is back within ~2 s of the instance
 
 
-class HomeAssistantSource:
+class HomeAssistantSource(ConnectedSource):
     """The context of a home, followed in a Home Assistant instance; a :class:`ContextSource`.
 
     Parameters
@@ -171,17 +172,6 @@ class HomeAssistantSource:
             thread.join(10)
         self._thread = None
         self._connected.clear()
-
-    def __enter__(self) -> HomeAssistantSource:
-        return self.start()
-
-    def __exit__(self, *exc: object) -> None:
-        self.stop()
-
-    @property
-    def connected(self) -> bool:
-        """Whether the instance is connected and subscribed now."""
-        return self._connected.is_set()
 
     def status(self) -> dict[str, Any]:
         """The connection as the HMI shows it."""

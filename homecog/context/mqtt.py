@@ -56,6 +56,7 @@ from urllib.parse import unquote, urlsplit
 import paho.mqtt.client as mqtt
 from paho.mqtt.enums import CallbackAPIVersion
 
+from homecog.context import ConnectedSource
 from homecog.errors import ContextError, MqttError
 from homecog.home.codec import normalize
 from homecog.home.model import Home
@@ -158,7 +159,7 @@ def _connect(client: mqtt.Client, address: BrokerAddress, connected: threading.E
         raise MqttError(f"MQTT broker {where} did not accept the connection within {timeout:g} s")
 
 
-class MqttSource:
+class MqttSource(ConnectedSource):
     """The context of a home, followed on an MQTT broker; a :class:`ContextSource`.
 
     Parameters
@@ -226,17 +227,6 @@ class MqttSource:
             client.disconnect()
             client.loop_stop()
             self._connected.clear()
-
-    def __enter__(self) -> MqttSource:
-        return self.start()
-
-    def __exit__(self, *exc: object) -> None:
-        self.stop()
-
-    @property
-    def connected(self) -> bool:
-        """Whether the broker is connected now."""
-        return self._connected.is_set()
 
     # -- the context -------------------------------------------------------------------
     @property

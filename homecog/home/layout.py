@@ -111,7 +111,7 @@ class Layout:
     def wall_near(self, p: Point2, clearance: float = WALL_THICKNESS / 2) -> Segment | None:
         """A solid wall piece within ``clearance`` of ``p``, if any."""
         for s in self.solid_walls():
-            if _distance(p, s) < clearance:
+            if point_segment_distance(p, s) < clearance:
                 return s
         return None
 
@@ -148,7 +148,12 @@ def _cut(wall: Segment, doors: list[Segment]) -> list[Segment]:
     return [(wall[0], a, wall[0], b) for a, b in pieces]
 
 
-def _distance(p: Point2, s: Segment) -> float:
+def point_segment_distance(p: Point2, s: Segment) -> float:
+    """The distance from a point to a segment (x0, y0, x1, y1), in metres.
+
+    >>> point_segment_distance((1, 1), (0, 0, 2, 0)), point_segment_distance((3, 0), (0, 0, 2, 0))
+    (1.0, 1.0)
+    """
     (x, y), (x0, y0, x1, y1) = p, s
     dx, dy = x1 - x0, y1 - y0
     t = 0.0 if dx == dy == 0 else max(0.0, min(1.0, ((x - x0) * dx + (y - y0) * dy) / (dx * dx + dy * dy)))

@@ -25,7 +25,7 @@ import numpy as np
 from homecog.errors import QTableError
 from homecog.home.groups import Group, device_groups, whole
 from homecog.home.model import Home
-from homecog.learning.qtable import QTable
+from homecog.learning.qtable import QTable, check_made_for
 from homecog.paths import atomic_write, reading
 
 FORMAT = 2
@@ -85,11 +85,7 @@ class Policy:
 
     def check_home(self, home: Home, source: str = "the Q table") -> None:
         """Raise :class:`QTableError` unless this policy was learned for ``home``."""
-        if self.home_hash != home.content_hash:
-            raise QTableError(
-                f"{source} was made for home '{self.home_name}' ({self.home_hash[:12]}), not for "
-                f"home '{home.name}' ({home.content_hash[:12]}); train again for this home"
-            )
+        check_made_for(self.home_name, self.home_hash, home, source)
 
     # -- the file ----------------------------------------------------------------------------
     def save(self, path: str | Path) -> Path:
@@ -147,11 +143,7 @@ class Policy:
 
     @classmethod
     def _from_meta(cls, meta: dict[str, Any], home: Home, path: Path) -> Policy:
-        if meta["home_hash"] != home.content_hash:
-            raise QTableError(
-                f"{path} was made for home '{meta['home_name']}' ({meta['home_hash'][:12]}), not for "
-                f"home '{home.name}' ({home.content_hash[:12]}); train again for this home"
-            )
+        check_made_for(meta["home_name"], meta["home_hash"], home, str(path))
         groups = (whole(home),) if meta["joint"] else device_groups(home)
         stored = [(tuple(g["devices"]), tuple(g["services"])) for g in meta["groups"]]
         if stored != [(g.devices, g.services) for g in groups]:

@@ -24,6 +24,15 @@ if TYPE_CHECKING:
 FORMAT = 1
 
 
+def check_made_for(name: str, content_hash: str, home: Home, source: str) -> None:
+    """Raise :class:`QTableError`, naming both homes, unless ``content_hash`` is ``home``'s."""
+    if content_hash != home.content_hash:
+        raise QTableError(
+            f"{source} was made for home '{name}' ({content_hash[:12]}), not for "
+            f"home '{home.name}' ({home.content_hash[:12]}); train again for this home"
+        )
+
+
 @dataclass
 class QTable:
     """Q values ``q[state, service]`` (float32), which pairs were tried, and the run's record.
@@ -56,11 +65,7 @@ class QTable:
 
     def check_home(self, home: Home, source: str = "the Q table") -> None:
         """Raise :class:`QTableError` unless this table was made for ``home``."""
-        if self.home_hash != home.content_hash:
-            raise QTableError(
-                f"{source} was made for home '{self.home_name}' ({self.home_hash[:12]}), not for "
-                f"home '{home.name}' ({home.content_hash[:12]}); train again for this home"
-            )
+        check_made_for(self.home_name, self.home_hash, home, source)
 
     def save(self, path: str | Path) -> Path:
         """Write the table to ``path`` (.npz) atomically and return the path."""

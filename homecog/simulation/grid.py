@@ -26,7 +26,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from homecog.errors import PlanningError
-from homecog.home.layout import WALL_THICKNESS, Layout, Point2, Segment
+from homecog.home.layout import WALL_THICKNESS, Layout, Point2, Segment, point_segment_distance
 
 RESOLUTION = 0.05  # metres per cell
 ROBOT_RADIUS = 0.2  # metres
@@ -78,7 +78,7 @@ class OccupancyGrid:
 
     def wall_distance(self, p: Point2) -> float:
         """The distance from ``p`` to the nearest solid wall's centre line."""
-        return min(_point_segment_distance(p, s) for s in self.walls)
+        return min(point_segment_distance(p, s) for s in self.walls)
 
     def is_free(self, p: Point2) -> bool:
         """Whether the robot's centre may stand at ``p`` (exact geometry, not the cells)."""
@@ -244,14 +244,6 @@ def plan_path(
     return path
 
 
-def _point_segment_distance(p: Point2, s: Segment) -> float:
-    (x, y), (x0, y0, x1, y1) = p, s
-    dx, dy = x1 - x0, y1 - y0
-    length2 = dx * dx + dy * dy
-    t = 0.0 if length2 == 0 else max(0.0, min(1.0, ((x - x0) * dx + (y - y0) * dy) / length2))
-    return math.hypot(x - (x0 + t * dx), y - (y0 + t * dy))
-
-
 def _cross(o: Point2, a: Point2, b: Point2) -> float:
     return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
 
@@ -263,8 +255,8 @@ def _segment_distance(a: Point2, b: Point2, s: Segment) -> float:
     if d1 * d2 < 0 and d3 * d4 < 0:
         return 0.0  # they cross; touching and overlapping give 0 below
     return min(
-        _point_segment_distance(a, s),
-        _point_segment_distance(b, s),
-        _point_segment_distance(c, (*a, *b)),
-        _point_segment_distance(d, (*a, *b)),
+        point_segment_distance(a, s),
+        point_segment_distance(b, s),
+        point_segment_distance(c, (*a, *b)),
+        point_segment_distance(d, (*a, *b)),
     )
