@@ -140,3 +140,24 @@ def test_eval_on_a_large_home_says_which_baseline_it_left_out(rooms8: Home, monk
     )
     assert report.methods["multi"].micro["f1"] >= 0.995
     assert "skipped" in report.as_dict()
+
+
+def test_the_running_robot_serves_48_devices(rooms8: Home, built: tuple[Store, IHDRTree]):
+    from fastapi.testclient import TestClient
+
+    from homecog.web.main import create_app
+    from homecog.web.models import json_context
+    from homecog.web.runtime import ManualSource, Runtime
+
+    store, _ = built
+    runtime = Runtime(home=rooms8, store=store, tree=store.load_tree(), source=ManualSource(rooms8))
+    client = TestClient(create_app(runtime))
+    assert len(client.get("/api/home").json()["devices"]) == 48
+    for case in random_scenarios(rooms8, 20, seed=12):
+        answer = client.post("/api/cognize", json={"context": json_context(rooms8, case.context)})
+        assert answer.status_code == 200
+        assert set(answer.json()["services"]) == case.truth
+    plan = client.post(
+        "/api/plan", json={"services": ["TurnOnLamp_room8"], "context": json_context(rooms8, case.context)}
+    )
+    assert plan.status_code == 200 and plan.json()["actions"][-1] == ["switch_by_hand", "lamp_room8", "on"]
