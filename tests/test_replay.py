@@ -37,7 +37,7 @@ def test_replay_learns_the_household(tmp_path, capsys):
     assert code == 0, err
     data = json.loads(out)
     assert data["events"] == 300
-    assert set(data["methods"]) == {"multi", "paper", "kmeans", "hoeffding"}
+    assert set(data["methods"]) == {"multi", "paper", "kmeans", "hoeffding", "frequency", "naive_bayes"}
     for m in data["methods"].values():
         assert set(m) == {"precision", "recall", "f1"}
     # the trees learn every correction at once; K-means cannot learn from the stream

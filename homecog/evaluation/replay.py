@@ -3,7 +3,9 @@
 Events are read in order; every method first predicts a row, then learns it: the trees as a
 correction by the household (the same path as ``homecog correct``, in memory), the Hoeffding
 trees by ``learn_one``. K-means cannot learn one row at a time and answers from its training
-clusters throughout (a fixed baseline). The running micro figures are kept after every event.
+clusters throughout (a fixed baseline). The simple online learners (``frequency``,
+``naive_bayes``) start from nothing and learn the household's events alone: they say what the
+stream itself teaches, without the home's rules. The running micro figures are kept after every event.
 """
 
 from __future__ import annotations
@@ -13,8 +15,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from homecog.evaluation.baselines import BASELINES, OnlineMethod
 from homecog.evaluation.evaluate import load_scenarios
-from homecog.evaluation.learn import learn_methods
+from homecog.evaluation.learn import Learned, learn_methods
 from homecog.evaluation.methods import METHODS, HoeffdingMethod, TreeMethod
 from homecog.evaluation.metrics import prf
 from homecog.home.model import Home
@@ -46,7 +49,7 @@ class ReplayResult:
 def _learn(method: Any, point: Any, wanted: Sequence[str]) -> None:
     if isinstance(method, TreeMethod):
         method.tree.correct_one(point, list(wanted), user=USER)
-    elif isinstance(method, HoeffdingMethod):
+    elif isinstance(method, HoeffdingMethod | OnlineMethod):
         method.learn_one(point, wanted)
 
 
@@ -66,9 +69,17 @@ def replay(
     start = time.perf_counter()
     check_size(home, joint=joint)  # before anything that takes time
     rows = load_scenarios(events, home, home, events=True)
-    policy = ensure_policy(home, joint=joint, progress=progress)
-    learning = learn_methods(home, policy, methods, seed=seed, progress=progress)
-    learned = learning.methods
+    learning = Learned(methods={})
+    if any(m not in BASELINES for m in methods):
+        policy = ensure_policy(home, joint=joint, progress=progress)
+        learning = learn_methods(
+            home, policy, [m for m in methods if m not in BASELINES], seed=seed, progress=progress
+        )
+    learned: dict[str, Any] = {
+        name: OnlineMethod(name, home) if name in BASELINES else learning.methods[name]
+        for name in methods
+        if name in BASELINES or name in learning.methods
+    }
     for m in learned.values():
         if isinstance(m, TreeMethod):
             m.user = USER
