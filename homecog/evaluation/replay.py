@@ -10,6 +10,7 @@ stream itself teaches, without the home's rules. The running micro figures are k
 
 from __future__ import annotations
 
+import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -20,6 +21,7 @@ from homecog.evaluation.evaluate import load_scenarios
 from homecog.evaluation.learn import Learned, learn_methods
 from homecog.evaluation.methods import METHODS, HoeffdingMethod, TreeMethod
 from homecog.evaluation.metrics import prf
+from homecog.evaluation.scenarios import Scenario
 from homecog.home.model import Home
 from homecog.knowledge.pipeline import ensure_policy
 from homecog.learning.size import check_size
@@ -64,11 +66,26 @@ def replay(
     progress: Progress | None = None,
 ) -> ReplayResult:
     """Predict, then learn, every event in order; figures per method and their running course."""
-    import time
-
-    start = time.perf_counter()
     check_size(home, joint=joint)  # before anything that takes time
     rows = load_scenarios(events, home, home, events=True)
+    return replay_rows(home, rows, methods=methods, seed=seed, points=points, joint=joint, progress=progress)
+
+
+def replay_rows(
+    home: Home,
+    rows: Sequence[Scenario],
+    *,
+    methods: Sequence[str] = METHODS,
+    seed: int = 0,
+    points: int = 200,
+    joint: bool = False,
+    progress: Progress | None = None,
+) -> ReplayResult:
+    """:func:`replay` of rows already read (events, or scenarios whose truth is another home's:
+    where several sets of services are optimal, each method is judged against, and learns, the
+    one nearest its answer, as ``eval`` does)."""
+    start = time.perf_counter()
+    check_size(home, joint=joint)
     learning = Learned(methods={})
     if any(m not in BASELINES for m in methods):
         policy = ensure_policy(home, joint=joint, progress=progress)
@@ -88,12 +105,13 @@ def replay(
     running: dict[str, list[tuple[int, float, float, float]]] = {name: [] for name in learned}
     for i, row in enumerate(rows, start=1):
         for name, method in learned.items():
-            predicted = set(method.predict_one(row.point))
+            answer = method.predict_one(row.point)
+            predicted, truth = set(answer), row.truth_for(answer)
             t = totals[name]
-            t[0] += len(predicted & row.truth)
+            t[0] += len(predicted & truth)
             t[1] += len(predicted)
-            t[2] += len(row.truth)
-            _learn(method, row.point, sorted(row.truth))
+            t[2] += len(truth)
+            _learn(method, row.point, sorted(truth))
             if i % every == 0 or i == len(rows):
                 running[name].append((i, *prf(*t)))
         if progress and i % 1000 == 0:
