@@ -1,0 +1,268 @@
+"""What one user's corrections say about one service (SPEC §7): counted evidence and the
+features that matter, learned from the corrections themselves.
+
+Every correction is a labelled example for every service it could concern: the service is
+wanted there or not. A service that would change nothing in a context (switching on a device
+that is on) is not concerned, so it learns nothing there and is never proposed there.
+
+An example is described by *atoms*, one per context feature — the value of a categorical
+feature, the interval of a numeric reading between the home's bin edges and the thresholds
+learned from the user's own readings — and one more: whether the shared tree proposes the
+service there (the prior, so a user who agrees with the shared knowledge keeps it). For every
+key — a set of at most ``order`` atoms — a table counts the wanted and unwanted examples per
+cell. The key that answers is the one whose cells would have predicted the examples best, each
+left out in turn (leave-one-out error of the cells' majorities; a cell of one example counts
+half an error, as it could not have answered): a feature whose change flips the wish lowers
+that error, a feature that varies while the wish stays the same only splits cells and raises
+it. The answer at a context is the majority of its cell under that key, so a wish repeated
+ten times outweighs one odd event; on a tie the latest word wins, and an empty cell leaves the
+answer to the shared tree.
+
+Thresholds: for each numeric feature, the reading that best separates the user's wanted and
+unwanted examples (Gini) is added to the home's bin edges, rounded to the shortest number
+between the two readings it separates, so the user's "fan from 23 °C" becomes a cut at 23.
+Thresholds are chosen again as the evidence grows (by a quarter), and the tables recounted.
+
+>>> learner = ServiceLearner(n_atoms=2, numeric={0: (25.0, 30.0)}, order=1)
+>>> for t, y in [(20.0, False), (22.0, False), (23.5, True), (24.0, True), (26.0, True), (21.0, False)]:
+...     learner.add([t, 0], [None, 0], y, shared=False)
+>>> learner.cuts[0]
+(23.0, 25.0, 30.0)
+>>> learner.decide([23.2, 0], [None, 0], shared=False).sign
+1
+>>> learner.decide([22.8, 0], [None, 0], shared=False).sign
+-1
+"""
+
+from __future__ import annotations
+
+import bisect
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from itertools import combinations
+
+Atom = object
+Key = tuple[int, ...]
+
+
+def _loo(p: int, n: int) -> float:
+    """Leave-one-out errors of a cell's majority vote over its p wanted and n unwanted examples."""
+
+    def wrong(same: int, other: int) -> float:
+        return 1.0 if same < other else 0.5 if same == other else 0.0
+
+    return p * wrong(p - 1, n) + n * wrong(n - 1, p)
+
+
+def _sign(p: int, n: int, last: int) -> int:
+    """A cell's answer: its majority; on a tie, its latest example (the user's latest word)."""
+    if p != n:
+        return 1 if p > n else -1
+    return 0 if not p else 1 if last else -1
+
+
+def round_cut(low: float, high: float) -> float:
+    """The shortest number in (low, high]: a threshold between two readings as a person says it.
+
+    >>> round_cut(22.97, 23.02), round_cut(15.3, 15.8), round_cut(0.1234, 0.1236)
+    (23.0, 15.5, 0.1235)
+    """
+    for digits in range(0, 7):
+        scale = 10.0**digits
+        for step in (10.0, 5.0, 2.0, 1.0) if digits == 0 else (5.0, 1.0):
+            cand = math.floor(low * scale / step + 1) * step / scale
+            if low < cand <= high:
+                return round(cand, digits)
+    return high
+
+
+def best_cut(readings: Sequence[float], labels: Sequence[bool]) -> float | None:
+    """The threshold that best splits the readings by label (least Gini impurity), or None."""
+    pairs = sorted(zip(readings, labels, strict=True))
+    n = len(pairs)
+    total_pos = sum(1 for _, y in pairs if y)
+    if n < 4 or total_pos in (0, n):
+        return None
+    best, best_i = math.inf, -1
+    pos = 0
+    for i in range(n - 1):
+        pos += pairs[i][1]
+        if pairs[i][0] == pairs[i + 1][0]:
+            continue
+        left, right = i + 1, n - i - 1
+        rpos = total_pos - pos
+        gini = pos * (left - pos) / left + rpos * (right - rpos) / right
+        if gini < best - 1e-12:
+            best, best_i = gini, i
+    if best_i < 0:
+        return None
+    return round_cut(pairs[best_i][0], pairs[best_i + 1][0])
+
+
+@dataclass
+class Decision:
+    """A learner's answer at a context: +1 propose, −1 reject, 0 (no evidence) leave it to the
+    shared tree;
+    the key that answered, its cell, and the wanted and unwanted examples in it."""
+
+    sign: int
+    key: Key
+    cell: tuple[Atom, ...]
+    wanted: int
+    unwanted: int
+
+
+class ServiceLearner:
+    """One user's evidence about one service.
+
+    Parameters
+    ----------
+    n_atoms
+        Context features, plus one for the shared tree's answer (the last atom).
+    numeric
+        Per numeric feature position, the home's bin edges (finite ones, sorted).
+    order
+        The most atoms a key may have.
+    prior
+        The atoms that the shared knowledge says matter to the service: between keys that
+        answer the evidence equally well, the one with more of them and fewer others wins
+        (what a single correction generalizes over).
+    """
+
+    def __init__(
+        self,
+        n_atoms: int,
+        numeric: dict[int, tuple[float, ...]],
+        order: int = 2,
+        prior: frozenset[int] = frozenset(),
+    ) -> None:
+        self.n_atoms = n_atoms
+        self.numeric = numeric
+        self.order = order
+        self.prior = prior
+        self.keys: list[Key] = [k for r in range(order + 1) for k in combinations(range(n_atoms), r)]
+        self.cuts: dict[int, tuple[float, ...]] = dict(numeric)
+        # per example: readings, codes, wanted, the shared answer, the caller's id for it
+        self._examples: list[tuple[Sequence[float | None], Sequence[int], bool, bool, int]] = []
+        self._atoms: list[tuple[Atom, ...]] = []
+        self._tables: dict[Key, dict[tuple[Atom, ...], list[int]]] = {k: {} for k in self.keys}
+        self._loo: dict[Key, float] = dict.fromkeys(self.keys, 0.0)
+        self._best: Key | None = None
+        self._next_cut = 4
+
+    @property
+    def n_examples(self) -> int:
+        return len(self._examples)
+
+    def atoms(self, readings: Sequence[float | None], codes: Sequence[int], shared: bool) -> tuple[Atom, ...]:
+        """An example's atoms: codes, numeric readings as intervals between cuts, the prior."""
+        out: list[Atom] = []
+        for j in range(self.n_atoms - 1):
+            cuts = self.cuts.get(j)
+            if cuts is None:
+                out.append(codes[j])
+            else:
+                r = readings[j]
+                out.append(("bin", codes[j]) if r is None else bisect.bisect_right(cuts, r))
+        out.append(int(shared))
+        return tuple(out)
+
+    def add(
+        self,
+        readings: Sequence[float | None],
+        codes: Sequence[int],
+        wanted: bool,
+        *,
+        shared: bool,
+        ident: int = 0,
+    ) -> None:
+        """Count one example: the service ``wanted`` or not in a context (``ident``: the
+        caller's name for it, given back by :meth:`members`)."""
+        self._examples.append((readings, codes, wanted, shared, ident))
+        atoms = self.atoms(readings, codes, shared)
+        self._atoms.append(atoms)
+        self._count(atoms, wanted)
+        self._best = None
+        if len(self._examples) >= self._next_cut:
+            self._next_cut = max(len(self._examples) + 2, len(self._examples) * 5 // 4)
+            self._recut()
+
+    def _count(self, atoms: tuple[Atom, ...], wanted: bool) -> None:
+        for key in self.keys:
+            cell = tuple(atoms[k] for k in key)
+            table = self._tables[key]
+            counts = table.get(cell)
+            if counts is None:
+                counts = table[cell] = [0, 0, 0]
+                before = 0.0
+            else:
+                before = _loo(counts[0], counts[1])
+            counts[0 if wanted else 1] += 1
+            counts[2] = wanted
+            self._loo[key] += _loo(counts[0], counts[1]) - before
+
+    def _recut(self) -> None:
+        cuts = dict(self.numeric)
+        for j, edges in self.numeric.items():
+            pairs = [(ex[0][j], ex[2]) for ex in self._examples if ex[0][j] is not None]
+            cut = best_cut([r for r, _ in pairs], [y for _, y in pairs])  # type: ignore[misc]
+            if cut is not None and cut not in edges:
+                cuts[j] = tuple(sorted((*edges, cut)))
+        if cuts == self.cuts:
+            return
+        self.cuts = cuts
+        self._tables = {k: {} for k in self.keys}
+        self._loo = dict.fromkeys(self.keys, 0.0)
+        self._atoms = []
+        for readings, codes, wanted, shared, _ in self._examples:
+            atoms = self.atoms(readings, codes, shared)
+            self._atoms.append(atoms)
+            self._count(atoms, wanted)
+
+    def best_key(self) -> Key:
+        """The key with the fewest leave-one-out errors (ties: more atoms of the prior, fewer
+        others, then the first)."""
+        if self._best is None:
+            prior = self.prior
+            self._best = min(
+                self.keys,
+                key=lambda k: (round(self._loo[k], 6), -len(prior.intersection(k)), len(set(k) - prior)),
+            )
+        return self._best
+
+    def decide(self, readings: Sequence[float | None], codes: Sequence[int], *, shared: bool) -> Decision:
+        key = self.best_key()
+        atoms = self.atoms(readings, codes, shared)
+        cell = tuple(atoms[k] for k in key)
+        p, n, last = self._tables[key].get(cell, (0, 0, 0))
+        return Decision(_sign(p, n, last), key, cell, p, n)
+
+    def members(self, decision: Decision) -> list[tuple[int, bool]]:
+        """The examples in a decision's cell: their ids and labels."""
+        return [
+            (self._examples[i][4], self._examples[i][2])
+            for i, atoms in enumerate(self._atoms)
+            if tuple(atoms[k] for k in decision.key) == decision.cell
+        ]
+
+    def interval(self, decision: Decision, j: int) -> tuple[float, float]:
+        """The interval of numeric feature ``j`` in a decision's cell, widened over neighbouring
+        cells (the same other atoms) that decide the same way: the learned interval."""
+        pos = decision.key.index(j)
+        k = decision.cell[pos]
+        cuts = self.cuts[j]
+        if not isinstance(k, int):
+            return (-math.inf, math.inf)
+        table = self._tables[decision.key]
+
+        def same(i: int) -> bool:
+            cell = (*decision.cell[:pos], i, *decision.cell[pos + 1 :])
+            return _sign(*table.get(cell, (0, 0, 0))) == decision.sign != 0
+
+        low, high = k, k
+        while low > 0 and same(low - 1):
+            low -= 1
+        while high < len(cuts) and same(high + 1):
+            high += 1
+        return (cuts[low - 1] if low > 0 else -math.inf, cuts[high] if high < len(cuts) else math.inf)
