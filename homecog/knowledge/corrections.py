@@ -43,6 +43,47 @@ from homecog.knowledge.evidence import Decision, ServiceLearner
 
 #: keys of at most this many atoms (features and the shared answer)
 ORDER = 2
+#: examples scored before a user's threshold is chosen from them (until then: the majority)
+CALIBRATE = 50
+#: the least share of wanted examples that may propose a service
+LOWEST_THRESHOLD = 0.2
+
+
+def best_threshold(scores: list[tuple[float, bool]]) -> float:
+    """The share of wanted examples above which proposing gave the best F1 on ``scores``
+    ((share before the example was counted, wanted) pairs), between LOWEST_THRESHOLD and ½
+    (ties: the higher).
+
+    >>> best_threshold([(0.9, True), (0.4, True), (0.4, False), (0.1, False)] * 20)
+    0.25
+    >>> best_threshold([(0.9, True), (0.4, False), (0.1, False)] * 20)
+    0.5
+    """
+    positives = sum(1 for _, w in scores if w)
+    if not positives:
+        return 0.5
+
+    def f1(tp: int, fp: int) -> float:
+        return 2 * tp / (2 * tp + fp + positives - tp)
+
+    pairs = sorted(scores, reverse=True)
+    tp = sum(1 for share, w in pairs if w and share > 0.5)
+    fp = sum(1 for share, w in pairs if not w and share > 0.5)
+    best, best_f1 = 0.5, f1(tp, fp)
+    for i, (share, wanted) in enumerate(pairs):
+        if share > 0.5:
+            continue
+        tp += wanted
+        fp += not wanted
+        below = pairs[i + 1][0] if i + 1 < len(pairs) else 0.0
+        if below == share:
+            continue
+        cut = (share + below) / 2  # proposing above it proposes exactly these
+        if cut < LOWEST_THRESHOLD:
+            break
+        if f1(tp, fp) > best_f1 + 1e-12:
+            best, best_f1 = cut, f1(tp, fp)
+    return round(best, 4)
 
 
 @dataclass(frozen=True)
@@ -90,6 +131,12 @@ class UserLayers:
         self._examples: dict[str, list[Example]] = {}
         self._learners: dict[str, dict[int, ServiceLearner]] = {}
         self._made_at: dict[str, int] = {}
+        # per user: (share of wanted examples in the answering cell, wanted) of every example
+        # as it came, before it was counted; and the share above which the user's answers
+        # propose, chosen from those for the best F1
+        self._scores: dict[str, list[tuple[float, bool]]] = {}
+        self._threshold: dict[str, float] = {}
+        self._calibrated_at: dict[str, int] = {}
 
     @property
     def users(self) -> list[str]:
@@ -105,8 +152,8 @@ class UserLayers:
 
     def set_examples(self, user: str, examples: list[Example]) -> None:
         """Replace a user's corrections (the store, loading them from the log)."""
-        self._learners.pop(user, None)
-        self._made_at.pop(user, None)
+        for made in (self._learners, self._made_at, self._scores, self._threshold, self._calibrated_at):
+            made.pop(user, None)
         if examples:
             self._examples[user] = list(examples)
         else:
@@ -129,6 +176,7 @@ class UserLayers:
 
     def _learn(self, user: str, example: Example, ident: int) -> None:
         learners = self._learners.setdefault(user, {})
+        scores = self._scores.setdefault(user, [])
         shared = self._shared(Point(example.codes, example.readings))
         codes, readings = example.codes, example.readings
         for a in range(len(self._effects)):
@@ -139,7 +187,14 @@ class UserLayers:
                 learner = learners[a] = ServiceLearner(
                     self._n_features + 1, self._numeric, self.order, self._relevant(a)
                 )
-            learner.add(readings, codes, a in example.want, shared=a in shared, ident=ident)
+            wanted = a in example.want
+            before = learner.decide(readings, codes, shared=a in shared)
+            if before.wanted + before.unwanted:
+                scores.append((before.wanted / (before.wanted + before.unwanted), wanted))
+            learner.add(readings, codes, wanted, shared=a in shared, ident=ident)
+        if len(scores) >= max(CALIBRATE, self._calibrated_at.get(user, 0) * 5 // 4):
+            self._calibrated_at[user] = len(scores)
+            self._threshold[user] = best_threshold(scores)
 
     def learners(self, user: str) -> dict[int, ServiceLearner]:
         """A user's learners per service, made again if the shared tree changed since."""
@@ -147,6 +202,8 @@ class UserLayers:
         if self._made_at.get(user) != version:
             self._learners[user] = {}
             self._made_at[user] = version
+            for made in (self._scores, self._threshold, self._calibrated_at):
+                made.pop(user, None)
             for i, example in enumerate(self._examples.get(user, []), start=1):
                 self._learn(user, example, i)
         return self._learners.get(user, {})
@@ -158,13 +215,15 @@ class UserLayers:
         learner = self.learners(user).get(a)
         if learner is None or not self.changes(a, p.codes):
             return None
-        return learner.decide(p.readings, p.codes, shared=shared)
+        return learner.decide(p.readings, p.codes, shared=shared, threshold=self._threshold.get(user, 0.5))
 
     def decisions(self, user: str, p: Point, shared: frozenset[int]) -> Iterator[tuple[int, Decision]]:
         """Every service the user's evidence decides at ``p`` (propose or reject)."""
-        for a, learner in self.learners(user).items():
+        learners = self.learners(user)
+        threshold = self._threshold.get(user, 0.5)
+        for a, learner in learners.items():
             if self.changes(a, p.codes):
-                d = learner.decide(p.readings, p.codes, shared=a in shared)
+                d = learner.decide(p.readings, p.codes, shared=a in shared, threshold=threshold)
                 if d.sign:
                     yield a, d
 

@@ -37,6 +37,7 @@ Thresholds are chosen again as the evidence grows (by a quarter), and the tables
 from __future__ import annotations
 
 import bisect
+import functools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -46,20 +47,29 @@ Atom = object
 Key = tuple[int, ...]
 
 
+@functools.lru_cache(maxsize=1 << 16)
 def _loo(p: int, n: int) -> float:
-    """Leave-one-out errors of a cell's majority vote over its p wanted and n unwanted examples."""
+    """Leave-one-out log loss (nats) of a cell's estimate over its p wanted and n unwanted
+    examples: each example left out is predicted by the others, with half an example of each
+    label added (a cell of one example then says one half: log 2)."""
+    m = p + n
+    out = 0.0
+    if p:
+        out -= p * math.log((p - 0.5) / m)
+    if n:
+        out -= n * math.log((n - 0.5) / m)
+    return out
 
-    def wrong(same: int, other: int) -> float:
-        return 1.0 if same < other else 0.5 if same == other else 0.0
 
-    return p * wrong(p - 1, n) + n * wrong(n - 1, p)
-
-
-def _sign(p: int, n: int, last: int) -> int:
-    """A cell's answer: its majority; on a tie, its latest example (the user's latest word)."""
-    if p != n:
-        return 1 if p > n else -1
-    return 0 if not p else 1 if last else -1
+def _sign(p: int, n: int, last: int, threshold: float = 0.5) -> int:
+    """A cell's answer: wanted when its share of wanted examples is above ``threshold`` (the
+    majority by default), not when below; on a tie, its latest example (the user's latest word)."""
+    if not p + n:
+        return 0
+    share = p / (p + n)
+    if abs(share - threshold) > 1e-9:
+        return 1 if share > threshold else -1
+    return 1 if last else -1
 
 
 def round_cut(low: float, high: float) -> float:
@@ -111,6 +121,7 @@ class Decision:
     cell: tuple[Atom, ...]
     wanted: int
     unwanted: int
+    threshold: float = 0.5
 
 
 class ServiceLearner:
@@ -149,6 +160,7 @@ class ServiceLearner:
         self._tables: dict[Key, dict[tuple[Atom, ...], list[int]]] = {k: {} for k in self.keys}
         self._loo: dict[Key, float] = dict.fromkeys(self.keys, 0.0)
         self._best: Key | None = None
+        self._backoff: list[Key] | None = None
         self._next_cut = 4
 
     @property
@@ -183,7 +195,7 @@ class ServiceLearner:
         atoms = self.atoms(readings, codes, shared)
         self._atoms.append(atoms)
         self._count(atoms, wanted)
-        self._best = None
+        self._best = self._backoff = None
         if len(self._examples) >= self._next_cut:
             self._next_cut = max(len(self._examples) + 2, len(self._examples) * 5 // 4)
             self._recut()
@@ -224,19 +236,33 @@ class ServiceLearner:
         """The key with the fewest leave-one-out errors (ties: more atoms of the prior, fewer
         others, then the first)."""
         if self._best is None:
-            prior = self.prior
-            self._best = min(
-                self.keys,
-                key=lambda k: (round(self._loo[k], 6), -len(prior.intersection(k)), len(set(k) - prior)),
-            )
+            self._best = min(self.keys, key=self._rank)
         return self._best
 
-    def decide(self, readings: Sequence[float | None], codes: Sequence[int], *, shared: bool) -> Decision:
-        key = self.best_key()
+    def _rank(self, k: Key) -> tuple[float, int, int]:
+        return (round(self._loo[k], 6), -len(self.prior.intersection(k)), len(set(k) - self.prior))
+
+    def decide(
+        self, readings: Sequence[float | None], codes: Sequence[int], *, shared: bool, threshold: float = 0.5
+    ) -> Decision:
         atoms = self.atoms(readings, codes, shared)
-        cell = tuple(atoms[k] for k in key)
-        p, n, last = self._tables[key].get(cell, (0, 0, 0))
-        return Decision(_sign(p, n, last), key, cell, p, n)
+        for key in self.backoff():
+            cell = tuple(atoms[k] for k in key)
+            counts = self._tables[key].get(cell)
+            if counts is not None:
+                p, n, last = counts
+                return Decision(_sign(p, n, last, threshold), key, cell, p, n, threshold)
+        return Decision(0, (), (), 0, 0, threshold)
+
+    def backoff(self) -> list[Key]:
+        """The best key, then its sub-keys best first: where a context's cell under a key holds
+        no example, the next answers (the empty key holds every example)."""
+        if self._backoff is None:
+            best = set(self.best_key())
+            subs = [k for k in self.keys if set(k) < best]
+            subs.sort(key=self._rank)
+            self._backoff = [self.best_key(), *subs]
+        return self._backoff
 
     def members(self, decision: Decision) -> list[tuple[int, bool]]:
         """The examples in a decision's cell: their ids and labels."""
@@ -258,7 +284,7 @@ class ServiceLearner:
 
         def same(i: int) -> bool:
             cell = (*decision.cell[:pos], i, *decision.cell[pos + 1 :])
-            return _sign(*table.get(cell, (0, 0, 0))) == decision.sign != 0
+            return _sign(*table.get(cell, (0, 0, 0)), decision.threshold) == decision.sign != 0
 
         low, high = k, k
         while low > 0 and same(low - 1):
