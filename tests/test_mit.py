@@ -66,3 +66,35 @@ def test_broken_data_names_file_and_line(tmp_path, capsys):
     err = capsys.readouterr().err
     assert code == 2
     assert "activities_data.csv: line 1: '4/x/2003' is not a date M/D/YYYY" in err and err.count("\n") == 1
+
+
+def test_location_comes_from_the_other_sensors_never_the_devices(tmp_path):
+    """The light switched during an activity is what the robot predicts: it must not say where
+    the user is."""
+    from homecog.evaluation.mit import convert
+
+    folder = tmp_path / "subject9"
+    folder.mkdir()
+    (folder / "sensors.csv").write_text(
+        "101,Bathroom,Light switch\n102,Bathroom,Exhaust fan\n103,Kitchen,Cabinet\n104,Kitchen,Light switch\n"
+    )
+    blocks = [
+        # the bathroom's devices fire three times, the kitchen's cabinet once: the kitchen
+        ("Toileting,4/1/2003,17:30:00,17:50:00", ["101", "102", "101", "103"]),
+        # only devices fire: where the user is is not known
+        ("Toileting,4/2/2003,17:30:00,17:50:00", ["101", "102"]),
+        # no device at all
+        ("Preparing lunch,4/3/2003,12:00:00,12:20:00", ["103"]),
+    ]
+    lines = []
+    for head, ids in blocks:
+        on = [f"{head.split(',')[2][:3]}{31 + k}:00" for k in range(len(ids))]
+        off = [f"{head.split(',')[2][:3]}{31 + k}:30" for k in range(len(ids))]
+        lines += [head, ",".join(ids), ",".join("x" for _ in ids), ",".join(on), ",".join(off)]
+    (folder / "activities_data.csv").write_text("\n".join(lines) + "\n")
+    _, events, n = convert(folder, tmp_path / "out")
+    with events.open() as f:
+        table = list(csv.DictReader(f))
+    assert n == 3
+    assert [r["location"] for r in table] == ["kitchen", "unknown", "kitchen"]
+    assert table[0]["services"] == "TurnOnLightBathroom;TurnOnFanBathroom"

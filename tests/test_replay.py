@@ -6,6 +6,8 @@ import json
 from datetime import datetime, timedelta
 from pathlib import Path
 
+import pytest
+
 from homecog.cli.main import main
 from homecog.evaluation.scenarios import random_scenarios
 from homecog.home import load_home
@@ -37,7 +39,7 @@ def test_replay_learns_the_household(tmp_path, capsys):
     assert code == 0, err
     data = json.loads(out)
     assert data["events"] == 300
-    assert set(data["methods"]) == {"multi", "paper", "kmeans", "hoeffding"}
+    assert set(data["methods"]) == {"multi", "paper", "kmeans", "hoeffding", "frequency", "naive_bayes"}
     for m in data["methods"].values():
         assert set(m) == {"precision", "recall", "f1"}
     # the trees learn every correction at once; K-means cannot learn from the stream
@@ -63,3 +65,18 @@ def test_replay_bad_events(tmp_path, capsys):
     code = main(["replay", "--home", STUDIO, "--events", str(no_ts)])
     _, err = capsys.readouterr()
     assert code == 2 and "line 1: missing column(s) timestamp" in err
+
+
+def test_replay_rows_of_the_simple_learners_alone():
+    """The online baselines need no policy: they learn the stream alone, from nothing."""
+    from homecog.evaluation.replay import replay_rows
+
+    home = load_home(STUDIO)
+    rows = random_scenarios(home, 400, seed=3, truth=load_home(KIM))
+    result = replay_rows(home, rows, methods=["frequency", "naive_bayes"], points=40)
+    assert result.events == 400 and set(result.methods) == {"frequency", "naive_bayes"}
+    for name, series in result.running.items():
+        assert [r[0] for r in series] == list(range(10, 401, 10))
+        assert series[-1][3] == pytest.approx(result.methods[name]["f1"], abs=1e-6)
+        # a household's wishes repeat: over the whole stream it does better than over its first half
+        assert series[-1][3] > series[19][3] > 0

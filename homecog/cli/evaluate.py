@@ -9,6 +9,7 @@ from typing import Annotated
 import typer
 
 from homecog.cli.options import (
+    ALL_METHODS,
     DbOption,
     HomeOption,
     JsonOption,
@@ -36,7 +37,7 @@ def eval_command(
         typer.Option(min=0, help="Corrections by a simulated user (the truth home), with a learning curve."),
     ] = 0,
     seed: Annotated[int, typer.Option(min=0, help="Seed of the scenarios and samples.")] = 0,
-    methods: Annotated[str, typer.Option(help="Methods, comma-separated.")] = "multi,paper,kmeans,hoeffding",
+    methods: Annotated[str, typer.Option(help="Methods, comma-separated.")] = ALL_METHODS,
     report: Annotated[
         Path | None, typer.Option(help="Write a Markdown report with charts into this folder.")
     ] = None,
@@ -101,7 +102,7 @@ def replay(
         ),
     ],
     home: HomeOption = "paper",
-    methods: Annotated[str, typer.Option(help="Methods, comma-separated.")] = "multi,paper,kmeans,hoeffding",
+    methods: Annotated[str, typer.Option(help="Methods, comma-separated.")] = ALL_METHODS,
     seed: Annotated[int, typer.Option(min=0, help="Seed of the samples the methods start from.")] = 0,
     report: Annotated[
         Path | None, typer.Option(help="Write a Markdown report with the running figures into this folder.")

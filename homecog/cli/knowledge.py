@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from collections.abc import Iterator
 from contextlib import contextmanager
+from pathlib import Path
 from typing import Annotated, Any
 
 import typer
@@ -14,6 +15,7 @@ from homecog.cli.options import (
     DbOption,
     HomeOption,
     JsonOption,
+    UsageProblemError,
     UserOption,
     status,
 )
@@ -64,18 +66,39 @@ def cognize(
 
 
 def correct(
-    context: ContextOption,
+    context: Annotated[
+        str | None,
+        typer.Option("--context", help="name=value for every feature and device, comma-separated."),
+    ] = None,
     want: Annotated[
-        str, typer.Option("--want", help="The services the user wants, comma-separated (empty: none).")
-    ],
+        str | None,
+        typer.Option("--want", help="The services the user wants, comma-separated (empty: none)."),
+    ] = None,
+    events: Annotated[
+        Path | None,
+        typer.Option(
+            "--events",
+            help="An event CSV file (timestamp, every feature and device, services; optionally user) "
+            "to learn, row by row, as corrections.",
+        ),
+    ] = None,
+    batch: Annotated[int, typer.Option(min=1, help="Corrections of --events to a transaction.")] = 100,
     home: HomeOption = "paper",
     user: UserOption = "default",
     db: DbOption = None,
     json: JsonOption = False,
 ) -> None:
-    """Tell the robot which services the user wants in a context; it learns at once."""
+    """Tell the robot which services the user wants in a context, or learn an event file; it
+    learns at once."""
     from homecog.home.codec import Space, parse_context, parse_services
 
+    if events is not None:
+        if context is not None or want is not None:
+            raise UsageProblemError("--events learns a file: give it without --context and --want")
+        _correct_events(events, home=home, user=user, db=db, batch=batch, json=json)
+        return
+    if context is None or want is None:
+        raise UsageProblemError("give --context and --want, or --events FILE")
     h = load_home(home)
     point = parse_context(context, Space(h))
     wanted = parse_services(want, h)
@@ -89,3 +112,26 @@ def correct(
         f"learned for {user}: added {', '.join(added) or 'nothing'}; "
         f"rejected {', '.join(rejected) or 'nothing'} ({experiences:,} experiences)"
     )
+
+
+def _correct_events(events: Path, *, home: str, user: str, db: str | None, batch: int, json: bool) -> None:
+    """``correct --events``: the whole file checked, then learned in batches of transactions."""
+    from homecog.cli.output import progress_bar
+    from homecog.knowledge.event_file import learn_corrections, read_corrections
+
+    h = load_home(home)
+    if not events.is_file():
+        raise UsageProblemError(f"--events {events}: no such file")
+    corrections = read_corrections(events, h, user)  # every row checked before the first write
+    with _knowledge(h, db) as (store, tree), progress_bar("learning corrections", len(corrections)) as bar:
+        result = learn_corrections(store, tree, corrections, batch=batch, progress=bar)
+    if json:
+        emit_json(result.as_dict())
+        return
+    stdout.print(
+        f"learned {result.events:,} events of {events.name} as corrections in {result.batches:,} "
+        f"transaction(s), {result.seconds:.1f} s: {result.changed:,} changed what the robot does "
+        f"(added {result.added:,} services, rejected {result.rejected:,}); {result.experiences:,} experiences"
+    )
+    for name, n in sorted(result.users.items()):
+        stdout.print(f"  {name}: {n:,} corrections")

@@ -58,6 +58,10 @@ def status(message: str) -> None:
         stderr.print(message, style="dim")
 
 
+#: Every method of ``eval`` and ``replay`` (homecog.evaluation.methods.METHODS), the default.
+ALL_METHODS = "multi,paper,kmeans,hoeffding,frequency,naive_bayes"
+
+
 def method_names(text: str) -> list[str]:
     """The --methods list, validated."""
     from homecog.evaluation.methods import METHODS

@@ -46,8 +46,14 @@ def check_truth(home: Home, truth: Home) -> None:
         )
 
 
-def load_scenarios(path: Path, home: Home, truth: Home, *, events: bool = False) -> list[Scenario]:
-    """Scenarios (or events) from a CSV file (SPEC §9); errors name the file, line and column."""
+def load_scenarios(
+    path: Path, home: Home, truth: Home, *, events: bool = False, corrections: bool = False
+) -> list[Scenario]:
+    """Scenarios (or events) from a CSV file (SPEC §9); errors name the file, line and column.
+
+    ``corrections``: events to learn, which must say the services wanted and may name the
+    household member of each row in a ``user`` column.
+    """
     space = Space(home)
     needed = list(space.names)
     try:
@@ -60,12 +66,14 @@ def load_scenarios(path: Path, home: Home, truth: Home, *, events: bool = False)
         header = reader.fieldnames or []
         if not header:
             raise EvaluationError(f"{path}: empty file; expected a header with {', '.join(needed)}")
-        missing = [c for c in ([*needed, "timestamp"] if events else needed) if c not in header]
+        required = [*needed, "timestamp"] if events or corrections else needed
+        missing = [c for c in [*required, *(["services"] if corrections else [])] if c not in header]
         if missing:
             raise EvaluationError(f"{path}: line 1: missing column(s) {', '.join(missing)}")
-        if events and header[0] != "timestamp":
+        if (events or corrections) and header[0] != "timestamp":
             raise EvaluationError(f"{path}: line 1: the first column must be timestamp")
-        unknown = [c for c in header if c not in needed and c not in ("services", "timestamp")]
+        extra = ("services", "timestamp", *(["user"] if corrections else []))
+        unknown = [c for c in header if c not in needed and c not in extra]
         if unknown:
             raise EvaluationError(f"{path}: line 1: unknown column(s) {', '.join(unknown)}")
         for line, row in enumerate(reader, start=2):
@@ -80,8 +88,11 @@ def load_scenarios(path: Path, home: Home, truth: Home, *, events: bool = False)
                         parse_state(value, name)
                 except ContextError as e:
                     raise EvaluationError(f"{path}: line {line}, column {name}: {e}") from None
-            if events:
+            if events or corrections:
                 _check_timestamp(path, line, row["timestamp"])
+            user = (row.get("user") or "").strip() or None
+            if user is not None and len(user) > 200:
+                raise EvaluationError(f"{path}: line {line}, column user: longer than 200 characters")
             context = {name: row[name].strip() for name in needed}
             point = space.point(context)
             if row.get("services") is not None:
@@ -92,7 +103,7 @@ def load_scenarios(path: Path, home: Home, truth: Home, *, events: bool = False)
                 truth_set, ambiguous = frozenset(wanted), ()
             else:
                 truth_set, ambiguous = truth_of(truth, point)
-            out.append(Scenario(context=context, point=point, truth=truth_set, choices=ambiguous))
+            out.append(Scenario(context=context, point=point, truth=truth_set, choices=ambiguous, user=user))
     if not out:
         raise EvaluationError(f"{path}: no rows after the header")
     return out

@@ -7,6 +7,8 @@
 - ``hoeffding``: river's Hoeffding tree, one binary classifier per service, learned online
   from a stream of samples (features as the tree sees them: categories and bins as nominal
   values, readings as numbers, devices as on/off).
+- ``frequency`` and ``naive_bayes``: simple online learners (:mod:`homecog.evaluation.baselines`),
+  learned from the samples in ``eval`` and from the household's own events alone in ``replay``.
 
 Every method answers ``predict_one(point)`` with the services in priority order.
 """
@@ -23,7 +25,7 @@ from homecog.home.model import Home
 from homecog.knowledge.ihdr import IHDRTree
 from homecog.knowledge.samples import SampleSet
 
-METHODS = ("multi", "paper", "kmeans", "hoeffding")
+METHODS = ("multi", "paper", "kmeans", "hoeffding", "frequency", "naive_bayes")
 
 
 class Method(Protocol):

@@ -7,10 +7,13 @@ Each subject's folder (``sensors.csv``, ``activities_data.csv``) becomes
   on and off; and common-sense comfort rules written without looking at the events (light where
   the user is when it is not bright, the TV for watching, the fan for the bathroom, everything
   off when the user is out);
-- an event file (SPEC §9): one row per labelled activity, at its start: the context, the devices'
-  states then (a reed switch on a light switch is activated when the light goes on and
-  deactivated when it goes off), and as ``services`` what the subject switched during the
-  activity — the services this person really wanted.
+- an event file (SPEC §9): one row per labelled activity, at its start: the context (the time
+  of its start; the outdoor illumination then; ``behavior`` from the activity's label;
+  ``location`` the room whose *other* sensors — cabinets, doors, appliances, never the devices
+  the robot is to switch — fired most during the activity, ``out`` when the label says the
+  subject went out), the devices' states then (a reed switch on a light switch is activated
+  when the light goes on and deactivated when it goes off), and as ``services`` what the
+  subject switched during the activity — the services this person really wanted.
 
 Illumination is the clear-sky global horizontal irradiance of pvlib's Haurwitz model at the
 flats' city (Cambridge, Massachusetts) and the real dates and times, times 110 lx per W/m²: the
@@ -141,6 +144,18 @@ def behavior_of(name: str) -> str:
     return "chores"
 
 
+def location_of(activity: Activity, sensors: dict[str, tuple[str, str]], device_of: dict[str, str]) -> str:
+    """The room whose sensors fired most during an activity, among the sensors that are not
+    devices: a light switched during the activity is what the robot is to predict, so it must not
+    say where the user is. Ties go to the room first in alphabetical order; none fired: unknown."""
+    counts: dict[str, int] = {}
+    for sid, _, _ in activity.firings:
+        if sid in sensors and sid not in device_of:
+            room = slug(sensors[sid][0])
+            counts[room] = counts.get(room, 0) + 1
+    return max(sorted(counts), key=lambda r: counts[r]) if counts else "unknown"
+
+
 def illumination(times: list[datetime]) -> list[float]:
     """Clear-sky outdoor illuminance (lx) at the flats' city for local times."""
     import pandas as pd
@@ -184,17 +199,8 @@ def convert(folder: Path, out: Path, name: str | None = None) -> tuple[Path, Pat
     lux = illumination([a.start for a in activities])
     rows = []
     for a, light in zip(activities, lux, strict=True):
-        counts: dict[str, int] = {}
-        for sid, _, _ in a.firings:
-            if sid in sensors:
-                room = slug(sensors[sid][0])
-                counts[room] = counts.get(room, 0) + 1
         behavior = behavior_of(a.name)
-        location = (
-            "out"
-            if behavior == "out"
-            else (max(sorted(counts), key=lambda r: counts[r]) if counts else "unknown")
-        )
+        location = "out" if behavior == "out" else location_of(a, sensors, device_of)
         # what the subject wanted at the start: a device switched on during the activity that was
         # off, or one that was on and is off by its end
         wanted = []

@@ -3,20 +3,25 @@
 Events are read in order; every method first predicts a row, then learns it: the trees as a
 correction by the household (the same path as ``homecog correct``, in memory), the Hoeffding
 trees by ``learn_one``. K-means cannot learn one row at a time and answers from its training
-clusters throughout (a fixed baseline). The running micro figures are kept after every event.
+clusters throughout (a fixed baseline). The simple online learners (``frequency``,
+``naive_bayes``) start from nothing and learn the household's events alone: they say what the
+stream itself teaches, without the home's rules. The running micro figures are kept after every event.
 """
 
 from __future__ import annotations
 
+import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from homecog.evaluation.baselines import BASELINES, OnlineMethod
 from homecog.evaluation.evaluate import load_scenarios
-from homecog.evaluation.learn import learn_methods
+from homecog.evaluation.learn import Learned, learn_methods
 from homecog.evaluation.methods import METHODS, HoeffdingMethod, TreeMethod
 from homecog.evaluation.metrics import prf
+from homecog.evaluation.scenarios import Scenario
 from homecog.home.model import Home
 from homecog.knowledge.pipeline import ensure_policy
 from homecog.learning.size import check_size
@@ -46,7 +51,7 @@ class ReplayResult:
 def _learn(method: Any, point: Any, wanted: Sequence[str]) -> None:
     if isinstance(method, TreeMethod):
         method.tree.correct_one(point, list(wanted), user=USER)
-    elif isinstance(method, HoeffdingMethod):
+    elif isinstance(method, HoeffdingMethod | OnlineMethod):
         method.learn_one(point, wanted)
 
 
@@ -61,14 +66,37 @@ def replay(
     progress: Progress | None = None,
 ) -> ReplayResult:
     """Predict, then learn, every event in order; figures per method and their running course."""
-    import time
-
-    start = time.perf_counter()
     check_size(home, joint=joint)  # before anything that takes time
     rows = load_scenarios(events, home, home, events=True)
-    policy = ensure_policy(home, joint=joint, progress=progress)
-    learning = learn_methods(home, policy, methods, seed=seed, progress=progress)
-    learned = learning.methods
+    return replay_rows(home, rows, methods=methods, seed=seed, points=points, joint=joint, progress=progress)
+
+
+def replay_rows(
+    home: Home,
+    rows: Sequence[Scenario],
+    *,
+    methods: Sequence[str] = METHODS,
+    seed: int = 0,
+    points: int = 200,
+    joint: bool = False,
+    progress: Progress | None = None,
+) -> ReplayResult:
+    """:func:`replay` of rows already read (events, or scenarios whose truth is another home's:
+    where several sets of services are optimal, each method is judged against, and learns, the
+    one nearest its answer, as ``eval`` does)."""
+    start = time.perf_counter()
+    check_size(home, joint=joint)
+    learning = Learned(methods={})
+    if any(m not in BASELINES for m in methods):
+        policy = ensure_policy(home, joint=joint, progress=progress)
+        learning = learn_methods(
+            home, policy, [m for m in methods if m not in BASELINES], seed=seed, progress=progress
+        )
+    learned: dict[str, Any] = {
+        name: OnlineMethod(name, home) if name in BASELINES else learning.methods[name]
+        for name in methods
+        if name in BASELINES or name in learning.methods
+    }
     for m in learned.values():
         if isinstance(m, TreeMethod):
             m.user = USER
@@ -77,12 +105,13 @@ def replay(
     running: dict[str, list[tuple[int, float, float, float]]] = {name: [] for name in learned}
     for i, row in enumerate(rows, start=1):
         for name, method in learned.items():
-            predicted = set(method.predict_one(row.point))
+            answer = method.predict_one(row.point)
+            predicted, truth = set(answer), row.truth_for(answer)
             t = totals[name]
-            t[0] += len(predicted & row.truth)
+            t[0] += len(predicted & truth)
             t[1] += len(predicted)
-            t[2] += len(row.truth)
-            _learn(method, row.point, sorted(row.truth))
+            t[2] += len(truth)
+            _learn(method, row.point, sorted(truth))
             if i % every == 0 or i == len(rows):
                 running[name].append((i, *prf(*t)))
         if progress and i % 1000 == 0:

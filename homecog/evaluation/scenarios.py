@@ -35,6 +35,7 @@ class Scenario:
     point: Point
     truth: frozenset[str]
     choices: tuple[tuple[frozenset[str], ...], ...] = ()
+    user: str | None = None  # an event file's ``user`` column, where it may have one
 
     def truth_for(self, predicted: Sequence[str]) -> frozenset[str]:
         """The optimal set that agrees best with a prediction: most services in common, then

@@ -74,6 +74,7 @@ class Store:
         self.engine = make_engine(self.url)
         self._versions: dict[str, int] = {}
         self._known_users: set[str] = set()
+        self._batch: Connection | None = None  # the transaction corrections share (see batch)
         try:
             self._migrate()
             self._check_home()
@@ -109,6 +110,9 @@ class Store:
 
     @contextmanager
     def _tx(self) -> Iterator[Connection]:
+        if self._batch is not None:  # inside batch(): its transaction
+            yield self._batch
+            return
         try:
             with self.engine.begin() as conn:
                 yield conn
@@ -121,6 +125,25 @@ class Store:
 
     def close(self) -> None:
         self.engine.dispose()
+
+    @contextmanager
+    def batch(self) -> Iterator[None]:
+        """Corrections made inside share one transaction: all of them are stored, or none.
+
+        On an error the tree may hold corrections that were not stored: load it again.
+        """
+        if self._batch is not None:
+            raise StoreError("a batch of corrections is already open")
+        try:
+            with self._tx() as conn:
+                self._batch = conn
+                try:
+                    yield
+                finally:
+                    self._batch = None
+        except BaseException:
+            self._versions.clear()  # what this process believes of every user may not be stored
+            raise
 
     # -- reading --------------------------------------------------------------------------------
     def has_tree(self) -> bool:
@@ -308,6 +331,8 @@ class Store:
         A transaction the server aborts for a deadlock between concurrent corrections
         (MariaDB's locks on the users and clusters indexes) is run again.
         """
+        if self._batch is not None:  # a conflict aborts the whole batch: nothing to retry here
+            return self._correct_once(tree, point, want, user)
         for attempt in range(CONFLICT_RETRIES):
             try:
                 return self._correct_once(tree, point, want, user)

@@ -1,0 +1,186 @@
+"""Simple online learners beside the knowledge tree, so that every report says how ``multi``
+compares with what a plain count learns from the same stream.
+
+Both speak river's API: ``learn_one(x, y)`` and ``predict_one(x)``, where ``x`` is a dict of
+feature name -> value (every value a string: category, bin, ``on``/``off``) and ``y`` the set of
+services wanted there.
+
+- :class:`ServiceFrequency` (``frequency``): per service, how often it was wanted among the past
+  events of the same *key* — the home's categorical context of where the user is and what they do
+  (``location`` and ``behavior`` when the home has them; else its categorical features; else every
+  feature) and the state of the devices the service sets. A service is proposed when its frequency
+  in the key exceeds a threshold, and the threshold is chosen online: the one of
+  :data:`THRESHOLDS` that would have given the best micro F1 on the past events (each judged
+  before it was counted), so it uses nothing from the future.
+- :class:`ServiceNaiveBayes` (``naive_bayes``): river's Bernoulli naive Bayes, one binary model
+  per service (one-vs-rest) over the one-hot features ``name=value``.
+
+:class:`OnlineMethod` puts either on a home's points for ``eval`` and ``replay``.
+
+>>> f = ServiceFrequency({"TurnOnLamp": ["location", "lamp"]})
+>>> for _ in range(3):
+...     f.learn_one({"location": "sofa", "lamp": "off"}, {"TurnOnLamp"})
+>>> f.predict_one({"location": "sofa", "lamp": "off"}), f.predict_one({"location": "bed", "lamp": "off"})
+({'TurnOnLamp'}, set())
+"""
+
+from __future__ import annotations
+
+from collections.abc import Collection, Iterable, Mapping, Sequence
+from typing import Any
+
+import numpy as np
+
+from homecog.home.codec import Point, Space
+from homecog.home.model import Home
+
+#: The thresholds the frequency learner chooses among (a service is proposed above it).
+THRESHOLDS = tuple(i / 10 for i in range(10))
+#: The features of the key, by name, when the home has them as categorical features.
+KEY_FEATURES = ("location", "behavior")
+
+Features = Mapping[str, Any]
+
+
+def key_features(home: Home) -> list[str]:
+    """The context features of the frequency key: where the user is and what they do."""
+    categorical = [f.name for f in home.features if f.kind == "categorical"]
+    named = [n for n in KEY_FEATURES if n in categorical]
+    return named or categorical or list(home.feature_names)
+
+
+def frequency_keys(home: Home) -> dict[str, list[str]]:
+    """Per service, the features of its key: the context key and the devices the service sets."""
+    context = key_features(home)
+    return {s.name: [*context, *(d for d, _ in s.sets)] for s in home.services}
+
+
+def _f1(hits: int, predicted: int, true: int) -> float:
+    return 2 * hits / (predicted + true) if predicted + true else 0.0
+
+
+class ServiceFrequency:
+    """Per service, the frequency with which it was wanted in its key; a threshold chosen online.
+
+    ``keys`` maps each service to the names of the features its key is made of;
+    ``thresholds`` are the candidates, ``start`` the one used before any event decides.
+    """
+
+    def __init__(
+        self, keys: Mapping[str, Sequence[str]], thresholds: Sequence[float] = THRESHOLDS, start: float = 0.5
+    ) -> None:
+        self.keys = keys
+        self.thresholds = thresholds
+        self.start = start
+        self._counts: dict[str, dict[tuple[Any, ...], list[int]]] = {s: {} for s in keys}  # seen, wanted
+        self._tallies = [[0, 0, 0] for _ in thresholds]  # per threshold: hits, predicted, true
+        self._threshold = start
+
+    @property
+    def threshold(self) -> float:
+        """The threshold in use: the best on the events learned so far."""
+        return self._threshold
+
+    def frequency(self, service: str, x: Features) -> float | None:
+        """How often ``service`` was wanted in the key of ``x`` (None: the key was never seen)."""
+        seen, wanted = self._counts[service].get(self._key(service, x), (0, 0))
+        return wanted / seen if seen else None
+
+    def _key(self, service: str, x: Features) -> tuple[Any, ...]:
+        return tuple(x.get(name) for name in self.keys[service])
+
+    def predict_one(self, x: Features) -> set[str]:
+        out = set()
+        for service in self.keys:
+            f = self.frequency(service, x)
+            if f is not None and f > self._threshold:
+                out.add(service)
+        return out
+
+    def learn_one(self, x: Features, y: Collection[str]) -> None:
+        for service in self.keys:
+            key = self._key(service, x)
+            counts = self._counts[service].setdefault(key, [0, 0])
+            wanted = service in y
+            # how each threshold would have answered before this event is counted
+            f = counts[1] / counts[0] if counts[0] else None
+            for t, tally in zip(self.thresholds, self._tallies, strict=True):
+                proposed = f is not None and f > t
+                tally[0] += proposed and wanted
+                tally[1] += proposed
+                tally[2] += wanted
+            counts[0] += 1
+            counts[1] += wanted
+        best = max(
+            range(len(self.thresholds)),
+            key=lambda i: (_f1(*self._tallies[i]), -abs(self.thresholds[i] - self.start)),
+        )
+        self._threshold = self.thresholds[best]
+
+
+def one_hot(x: Features) -> dict[str, int]:
+    """``{name: value}`` as ``{"name=value": 1}``."""
+    return {f"{k}={v}": 1 for k, v in x.items()}
+
+
+class ServiceNaiveBayes:
+    """river's ``BernoulliNB``, one per service (one-vs-rest), on one-hot features."""
+
+    def __init__(self, services: Sequence[str], alpha: float = 1.0) -> None:
+        self.services = services
+        self.alpha = alpha
+        self._models: dict[str, Any] = {}
+
+    def _model(self, service: str) -> Any:
+        if service not in self._models:
+            from river.naive_bayes import BernoulliNB
+
+            self._models[service] = BernoulliNB(alpha=self.alpha)
+        return self._models[service]
+
+    def predict_one(self, x: Features) -> set[str]:
+        hot = one_hot(x)
+        return {s for s, m in self._models.items() if m.predict_one(hot) is True}
+
+    def learn_one(self, x: Features, y: Collection[str]) -> None:
+        hot = one_hot(x)
+        for s in self.services:
+            self._model(s).learn_one(hot, s in y)
+
+
+BASELINES = ("frequency", "naive_bayes")
+
+
+def features_of(space: Space, point: Point) -> dict[str, str]:
+    """A point as the baselines see it: every feature's value or bin, every device on/off."""
+    return {dim.name: dim.values[int(code)] for dim, code in zip(space.dims, point.codes, strict=True)}
+
+
+class OnlineMethod:
+    """A baseline on a home's points: predicts the services in the home's order, learns a row."""
+
+    def __init__(self, name: str, home: Home) -> None:
+        if name not in BASELINES:
+            raise ValueError(f"unknown baseline {name!r}; expected one of {', '.join(BASELINES)}")
+        self.name = name
+        self.home = home
+        self.space = Space(home)
+        self.learner: ServiceFrequency | ServiceNaiveBayes = (
+            ServiceFrequency(frequency_keys(home))
+            if name == "frequency"
+            else ServiceNaiveBayes(home.service_names)
+        )
+
+    def predict_one(self, point: Point) -> list[str]:
+        chosen = self.learner.predict_one(features_of(self.space, point))
+        return [s for s in self.home.service_names if s in chosen]
+
+    def learn_one(self, point: Point, wanted: Iterable[str]) -> None:
+        self.learner.learn_one(features_of(self.space, point), set(wanted))
+
+    def learn_samples(self, codes: np.ndarray, performed: np.ndarray) -> None:
+        """Learn rows of start states (codes) and the services performed there (a bool matrix)."""
+        names = self.home.service_names
+        for row, done in zip(codes.tolist(), performed.tolist(), strict=True):
+            x = {dim.name: dim.values[c] for dim, c in zip(self.space.dims, row, strict=True)}
+            self.learner.learn_one(x, {names[a] for a, d in enumerate(done) if d})

@@ -1,0 +1,106 @@
+"""``homecog correct --events FILE``: a household's event file learned as corrections (SPEC §9,
+§11, §12).
+
+The whole file is read and checked before anything is stored: a wrong header, an unknown
+service or value, an unparsable row is one error naming the file, the line and the column, and
+nothing is learned from a file that is refused. Then every row is learned, in order, as a
+correction through the store — the same path as ``homecog correct --context`` and the HMI —
+with ``batch`` corrections to a transaction: each batch is stored whole or not at all.
+
+A row's user is its ``user`` column where the file has one and the cell is not empty, else the
+``--user`` of the command.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from homecog.home.codec import Point
+from homecog.home.model import Home
+from homecog.knowledge.ihdr import IHDRTree
+
+#: Corrections to a transaction.
+BATCH = 100
+
+
+@dataclass(frozen=True)
+class EventCorrection:
+    """One row of an event file: the context, the services wanted there, and by whom."""
+
+    point: Point
+    want: list[str]
+    user: str
+
+
+@dataclass
+class EventsLearned:
+    """What learning an event file did."""
+
+    events: int
+    added: int = 0  # services added, over all corrections
+    rejected: int = 0
+    changed: int = 0  # corrections that added or rejected something
+    users: dict[str, int] = field(default_factory=dict)  # corrections per user
+    batches: int = 0
+    experiences: int = 0
+    seconds: float = 0.0
+
+    def as_dict(self) -> dict[str, Any]:
+        return {
+            "events": self.events,
+            "added": self.added,
+            "rejected": self.rejected,
+            "changed": self.changed,
+            "users": self.users,
+            "batches": self.batches,
+            "experiences": self.experiences,
+            "seconds": round(self.seconds, 3),
+        }
+
+
+def read_corrections(path: Path, home: Home, user: str) -> list[EventCorrection]:
+    """Every row of an event file as a correction, all checked before any is learned."""
+    from homecog.errors import EvaluationError
+    from homecog.evaluation.evaluate import load_scenarios
+
+    if not user or len(user) > 200:
+        raise EvaluationError("--user must be 1 to 200 characters")
+    order = {name: a for a, name in enumerate(home.service_names)}
+    return [
+        EventCorrection(point=r.point, want=sorted(r.truth, key=order.__getitem__), user=r.user or user)
+        for r in load_scenarios(path, home, home, corrections=True)
+    ]
+
+
+def learn_corrections(
+    store: Any,
+    tree: IHDRTree,
+    corrections: Sequence[EventCorrection],
+    *,
+    batch: int = BATCH,
+    progress: Callable[[int, int], None] | None = None,
+) -> EventsLearned:
+    """Learn the corrections in order, ``batch`` to a transaction (a :class:`Store`'s)."""
+    if batch < 1:
+        raise ValueError(f"batch must be at least 1, got {batch}")
+    start = time.perf_counter()
+    out = EventsLearned(events=len(corrections))
+    for first in range(0, len(corrections), batch):
+        chunk = corrections[first : first + batch]
+        with store.batch():
+            for c in chunk:
+                added, rejected = store.correct(tree, c.point, c.want, c.user)
+                out.added += len(added)
+                out.rejected += len(rejected)
+                out.changed += bool(added or rejected)
+                out.users[c.user] = out.users.get(c.user, 0) + 1
+        out.batches += 1
+        if progress:
+            progress(first + len(chunk), len(corrections))
+    out.experiences = store.experience_count()
+    out.seconds = time.perf_counter() - start
+    return out
