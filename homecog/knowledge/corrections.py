@@ -43,47 +43,44 @@ from homecog.knowledge.evidence import Decision, ServiceLearner
 
 #: keys of at most this many atoms (features and the shared answer)
 ORDER = 2
-#: examples scored before a user's threshold is chosen from them (until then: the majority)
-CALIBRATE = 50
-#: the least share of wanted examples that may propose a service
-LOWEST_THRESHOLD = 0.2
+#: examples judged before a user's threshold is chosen from them (until then: the majority)
+CALIBRATE = 20
+#: the shares of wanted examples a user's threshold is chosen among
+THRESHOLDS = (0.1, 0.15, 0.2, 0.25, 0.3, 0.35, 0.4, 0.45, 0.5)
 
 
-def best_threshold(scores: list[tuple[float, bool]]) -> float:
-    """The share of wanted examples above which proposing gave the best F1 on ``scores``
-    ((share before the example was counted, wanted) pairs), between LOWEST_THRESHOLD and ½
-    (ties: the higher).
+class Threshold:
+    """The share of wanted examples above which a user's answers propose a service: of
+    THRESHOLDS, the one that would have given the best F1 on the user's corrections so far,
+    each example judged before it was counted (ties: the nearest to ½); ½ until CALIBRATE
+    examples were judged.
 
-    >>> best_threshold([(0.9, True), (0.4, True), (0.4, False), (0.1, False)] * 20)
+    >>> t = Threshold()
+    >>> for _ in range(20):
+    ...     t.judge(0.9, True); t.judge(0.3, True); t.judge(0.3, False); t.judge(0.1, False)
+    >>> t.value
     0.25
-    >>> best_threshold([(0.9, True), (0.4, False), (0.1, False)] * 20)
-    0.5
     """
-    positives = sum(1 for _, w in scores if w)
-    if not positives:
-        return 0.5
 
-    def f1(tp: int, fp: int) -> float:
-        return 2 * tp / (2 * tp + fp + positives - tp)
+    def __init__(self) -> None:
+        self._tallies = [[0, 0, 0] for _ in THRESHOLDS]  # hits, proposed, wanted
+        self._judged = 0
+        self.value = 0.5
 
-    pairs = sorted(scores, reverse=True)
-    tp = sum(1 for share, w in pairs if w and share > 0.5)
-    fp = sum(1 for share, w in pairs if not w and share > 0.5)
-    best, best_f1 = 0.5, f1(tp, fp)
-    for i, (share, wanted) in enumerate(pairs):
-        if share > 0.5:
-            continue
-        tp += wanted
-        fp += not wanted
-        below = pairs[i + 1][0] if i + 1 < len(pairs) else 0.0
-        if below == share:
-            continue
-        cut = (share + below) / 2  # proposing above it proposes exactly these
-        if cut < LOWEST_THRESHOLD:
-            break
-        if f1(tp, fp) > best_f1 + 1e-12:
-            best, best_f1 = cut, f1(tp, fp)
-    return round(best, 4)
+    def judge(self, share: float, wanted: bool) -> None:
+        for t, tally in zip(THRESHOLDS, self._tallies, strict=True):
+            proposed = share > t
+            tally[0] += proposed and wanted
+            tally[1] += proposed
+            tally[2] += wanted
+        self._judged += 1
+        if self._judged >= CALIBRATE:
+            best = max(range(len(THRESHOLDS)), key=lambda i: (_f1(*self._tallies[i]), THRESHOLDS[i]))
+            self.value = THRESHOLDS[best]
+
+
+def _f1(hits: int, proposed: int, wanted: int) -> float:
+    return 2 * hits / (proposed + wanted) if proposed + wanted else 0.0
 
 
 @dataclass(frozen=True)
@@ -131,12 +128,8 @@ class UserLayers:
         self._examples: dict[str, list[Example]] = {}
         self._learners: dict[str, dict[int, ServiceLearner]] = {}
         self._made_at: dict[str, int] = {}
-        # per user: (share of wanted examples in the answering cell, wanted) of every example
-        # as it came, before it was counted; and the share above which the user's answers
-        # propose, chosen from those for the best F1
-        self._scores: dict[str, list[tuple[float, bool]]] = {}
-        self._threshold: dict[str, float] = {}
-        self._calibrated_at: dict[str, int] = {}
+        # per user: the share of wanted examples above which their answers propose
+        self._threshold: dict[str, Threshold] = {}
 
     @property
     def users(self) -> list[str]:
@@ -152,7 +145,7 @@ class UserLayers:
 
     def set_examples(self, user: str, examples: list[Example]) -> None:
         """Replace a user's corrections (the store, loading them from the log)."""
-        for made in (self._learners, self._made_at, self._scores, self._threshold, self._calibrated_at):
+        for made in (self._learners, self._made_at, self._threshold):
             made.pop(user, None)
         if examples:
             self._examples[user] = list(examples)
@@ -176,7 +169,7 @@ class UserLayers:
 
     def _learn(self, user: str, example: Example, ident: int) -> None:
         learners = self._learners.setdefault(user, {})
-        scores = self._scores.setdefault(user, [])
+        threshold = self._threshold.setdefault(user, Threshold())
         shared = self._shared(Point(example.codes, example.readings))
         codes, readings = example.codes, example.readings
         for a in range(len(self._effects)):
@@ -190,11 +183,8 @@ class UserLayers:
             wanted = a in example.want
             before = learner.decide(readings, codes, shared=a in shared)
             if before.wanted + before.unwanted:
-                scores.append((before.wanted / (before.wanted + before.unwanted), wanted))
+                threshold.judge(before.share, wanted)
             learner.add(readings, codes, wanted, shared=a in shared, ident=ident)
-        if len(scores) >= max(CALIBRATE, self._calibrated_at.get(user, 0) * 5 // 4):
-            self._calibrated_at[user] = len(scores)
-            self._threshold[user] = best_threshold(scores)
 
     def learners(self, user: str) -> dict[int, ServiceLearner]:
         """A user's learners per service, made again if the shared tree changed since."""
@@ -202,11 +192,14 @@ class UserLayers:
         if self._made_at.get(user) != version:
             self._learners[user] = {}
             self._made_at[user] = version
-            for made in (self._scores, self._threshold, self._calibrated_at):
-                made.pop(user, None)
+            self._threshold.pop(user, None)
             for i, example in enumerate(self._examples.get(user, []), start=1):
                 self._learn(user, example, i)
         return self._learners.get(user, {})
+
+    def _value(self, user: str) -> float:
+        threshold = self._threshold.get(user)
+        return 0.5 if threshold is None else threshold.value
 
     def decide(self, user: str | None, a: int, p: Point, shared: bool) -> Decision | None:
         """The user's evidence about service ``a`` at ``p``; None without any."""
@@ -215,12 +208,12 @@ class UserLayers:
         learner = self.learners(user).get(a)
         if learner is None or not self.changes(a, p.codes):
             return None
-        return learner.decide(p.readings, p.codes, shared=shared, threshold=self._threshold.get(user, 0.5))
+        return learner.decide(p.readings, p.codes, shared=shared, threshold=self._value(user))
 
     def decisions(self, user: str, p: Point, shared: frozenset[int]) -> Iterator[tuple[int, Decision]]:
         """Every service the user's evidence decides at ``p`` (propose or reject)."""
         learners = self.learners(user)
-        threshold = self._threshold.get(user, 0.5)
+        threshold = self._value(user)
         for a, learner in learners.items():
             if self.changes(a, p.codes):
                 d = learner.decide(p.readings, p.codes, shared=a in shared, threshold=threshold)

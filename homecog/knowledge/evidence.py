@@ -11,12 +11,14 @@ learned from the user's own readings — and one more: whether the shared tree p
 service there (the prior, so a user who agrees with the shared knowledge keeps it). For every
 key — a set of at most ``order`` atoms — a table counts the wanted and unwanted examples per
 cell. The key that answers is the one whose cells would have predicted the examples best, each
-left out in turn (leave-one-out error of the cells' majorities; a cell of one example counts
-half an error, as it could not have answered): a feature whose change flips the wish lowers
-that error, a feature that varies while the wish stays the same only splits cells and raises
-it. The answer at a context is the majority of its cell under that key, so a wish repeated
-ten times outweighs one odd event; on a tie the latest word wins, and an empty cell leaves the
-answer to the shared tree.
+left out in turn (leave-one-out log loss of the cells' shares; a cell of one example could only
+have said one half): a feature whose change flips the wish lowers that loss, a feature that
+varies while the wish stays the same only splits cells and raises it. The answer at a context
+is the share of wanted examples in its cell under that key, drawn a little toward the share of
+the key with one atom less (and so on down to every example), compared with a threshold — ½, or
+the user's own (:mod:`homecog.knowledge.corrections`). So a wish repeated ten times outweighs
+one odd event; on a tie the latest word wins; where a user has no example at all, the shared
+tree answers.
 
 Thresholds: for each numeric feature, the reading that best separates the user's wanted and
 unwanted examples (Gini) is added to the home's bin edges, rounded to the shortest number
@@ -44,6 +46,8 @@ from dataclasses import dataclass
 from itertools import combinations
 
 Atom = object
+#: how many examples' worth a cell's share is drawn toward the share of its key less one atom
+SMOOTHING = 3.0
 Key = tuple[int, ...]
 
 
@@ -61,15 +65,12 @@ def _loo(p: int, n: int) -> float:
     return out
 
 
-def _sign(p: int, n: int, last: int, threshold: float = 0.5) -> int:
-    """A cell's answer: wanted when its share of wanted examples is above ``threshold`` (the
-    majority by default), not when below; on a tie, its latest example (the user's latest word)."""
-    if not p + n:
-        return 0
-    share = p / (p + n)
-    if abs(share - threshold) > 1e-9:
-        return 1 if share > threshold else -1
-    return 1 if last else -1
+def _sign(share: float, threshold: float, last: int) -> int:
+    """An answer from a share of wanted examples: above the threshold propose, below it reject,
+    on a tie the latest example (the user's latest word)."""
+    if abs(share - threshold) <= 1e-9:
+        return 1 if last else -1
+    return 1 if share > threshold else -1
 
 
 def round_cut(low: float, high: float) -> float:
@@ -113,8 +114,7 @@ def best_cut(readings: Sequence[float], labels: Sequence[bool]) -> float | None:
 @dataclass
 class Decision:
     """A learner's answer at a context: +1 propose, −1 reject, 0 (no evidence) leave it to the
-    shared tree;
-    the key that answered, its cell, and the wanted and unwanted examples in it."""
+    shared tree; the key that answered, its cell, and the wanted and unwanted examples in it."""
 
     sign: int
     key: Key
@@ -122,6 +122,7 @@ class Decision:
     wanted: int
     unwanted: int
     threshold: float = 0.5
+    share: float = 0.5  # the estimated share of wanted examples, drawn toward the sub-keys'
 
 
 class ServiceLearner:
@@ -245,23 +246,36 @@ class ServiceLearner:
     def decide(
         self, readings: Sequence[float | None], codes: Sequence[int], *, shared: bool, threshold: float = 0.5
     ) -> Decision:
+        """The answer at a context: the share of wanted examples in its cell under the best key,
+        drawn toward the share under the key with one atom less (SMOOTHING examples' worth), and
+        so on down to the empty key; proposed above ``threshold``, rejected below it, on a tie
+        the latest example of the cell decides. The key and cell reported are the most specific
+        that hold an example."""
         atoms = self.atoms(readings, codes, shared)
-        for key in self.backoff():
+        share: float | None = None
+        found: tuple[Key, tuple[Atom, ...], Sequence[int]] | None = None
+        for key in reversed(self.backoff()):
             cell = tuple(atoms[k] for k in key)
             counts = self._tables[key].get(cell)
-            if counts is not None:
-                p, n, last = counts
-                return Decision(_sign(p, n, last, threshold), key, cell, p, n, threshold)
-        return Decision(0, (), (), 0, 0, threshold)
+            if counts is None:
+                break  # a more specific cell of this context holds nothing either
+            prior = 0.5 if share is None else share
+            share = (counts[0] + SMOOTHING * prior) / (counts[0] + counts[1] + SMOOTHING)
+            found = (key, cell, counts)
+        if found is None or share is None:
+            return Decision(0, (), (), 0, 0, threshold)
+        key, cell, (p, n, last) = found
+        return Decision(_sign(share, threshold, last), key, cell, p, n, threshold, share)
 
     def backoff(self) -> list[Key]:
-        """The best key, then its sub-keys best first: where a context's cell under a key holds
-        no example, the next answers (the empty key holds every example)."""
+        """The best key, then the best of its keys with one atom less, and so on to the empty key."""
         if self._backoff is None:
-            best = set(self.best_key())
-            subs = [k for k in self.keys if set(k) < best]
-            subs.sort(key=self._rank)
-            self._backoff = [self.best_key(), *subs]
+            chain = [self.best_key()]
+            while chain[-1]:
+                atoms = set(chain[-1])
+                subs = [k for k in self.keys if len(k) == len(atoms) - 1 and set(k) < atoms]
+                chain.append(min(subs, key=self._rank))
+            self._backoff = chain
         return self._backoff
 
     def members(self, decision: Decision) -> list[tuple[int, bool]]:
@@ -284,7 +298,8 @@ class ServiceLearner:
 
         def same(i: int) -> bool:
             cell = (*decision.cell[:pos], i, *decision.cell[pos + 1 :])
-            return _sign(*table.get(cell, (0, 0, 0)), decision.threshold) == decision.sign != 0
+            p, n, last = table.get(cell, (0, 0, 0))
+            return p + n > 0 and _sign(p / (p + n), decision.threshold, last) == decision.sign
 
         low, high = k, k
         while low > 0 and same(low - 1):
