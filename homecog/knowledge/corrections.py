@@ -237,7 +237,7 @@ class UserLayers:
             atom = decision.cell[pos]
             if feature.bins is None:
                 conditions[feature.name] = feature.values[atom]  # type: ignore[index]
-            elif not isinstance(atom, int):
+            elif isinstance(atom, tuple):
                 conditions[feature.name] = f"{feature.values[atom[1]]} {feature.describe_bin(atom[1])}"  # type: ignore[index]
             else:
                 conditions[feature.name] = _interval(feature, *learner.interval(decision, j))

@@ -23,7 +23,7 @@ tree answers.
 Thresholds: for each numeric feature, the reading that best separates the user's wanted and
 unwanted examples (Gini) is added to the home's bin edges, rounded to the shortest number
 between the two readings it separates, so the user's "fan from 23 °C" becomes a cut at 23.
-Thresholds are chosen again as the evidence grows (by a quarter), and the tables recounted.
+Thresholds are chosen again as the evidence grows (by half), and the tables recounted.
 
 >>> learner = ServiceLearner(n_atoms=2, numeric={0: (25.0, 30.0)}, order=1)
 >>> for t, y in [(20.0, False), (22.0, False), (23.5, True), (24.0, True), (26.0, True), (21.0, False)]:
@@ -41,7 +41,8 @@ from __future__ import annotations
 import bisect
 import functools
 import math
-from collections.abc import Sequence
+import operator
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 from itertools import combinations
 
@@ -63,6 +64,16 @@ def _loo(p: int, n: int) -> float:
     if n:
         out -= n * math.log((n - 0.5) / m)
     return out
+
+
+def _cell_of(key: Key) -> Callable[[tuple[Atom, ...]], tuple[Atom, ...]]:
+    """A function from atoms to a key's cell."""
+    if not key:
+        return lambda atoms: ()
+    if len(key) == 1:
+        k = key[0]
+        return lambda atoms: (atoms[k],)
+    return operator.itemgetter(*key)  # type: ignore[return-value]
 
 
 def _sign(share: float, threshold: float, last: int) -> int:
@@ -158,9 +169,16 @@ class ServiceLearner:
         # per example: readings, codes, wanted, the shared answer, the caller's id for it
         self._examples: list[tuple[Sequence[float | None], Sequence[int], bool, bool, int]] = []
         self._atoms: list[tuple[Atom, ...]] = []
-        self._tables: dict[Key, dict[tuple[Atom, ...], list[int]]] = {k: {} for k in self.keys}
-        self._loo: dict[Key, float] = dict.fromkeys(self.keys, 0.0)
-        self._best: Key | None = None
+        # per key (by position in self.keys): its cells' counts [wanted, unwanted, latest] and
+        # its leave-one-out loss
+        self._tables: list[dict[tuple[Atom, ...], list[int]]] = [{} for _ in self.keys]
+        self._loo = [0.0] * len(self.keys)
+        self._cell = [_cell_of(k) for k in self.keys]
+        self._index = {k: i for i, k in enumerate(self.keys)}
+        # per key, its keys with one atom less
+        self._subs = [[self._index[k[:m] + k[m + 1 :]] for m in range(len(k))] for k in self.keys]
+        self._prior_rank = [(-len(prior.intersection(k)), len(set(k) - prior)) for k in self.keys]
+        self._best: int | None = None
         self._backoff: list[Key] | None = None
         self._next_cut = 4
 
@@ -177,7 +195,11 @@ class ServiceLearner:
                 out.append(codes[j])
             else:
                 r = readings[j]
-                out.append(("bin", codes[j]) if r is None else bisect.bisect_right(cuts, r))
+                if r is None:
+                    out.append(("bin", codes[j]))
+                else:  # the interval, by its lower end: a new cut moves only what it splits off
+                    i = bisect.bisect_right(cuts, r)
+                    out.append(cuts[i - 1] if i else -math.inf)
         out.append(int(shared))
         return tuple(out)
 
@@ -195,53 +217,62 @@ class ServiceLearner:
         self._examples.append((readings, codes, wanted, shared, ident))
         atoms = self.atoms(readings, codes, shared)
         self._atoms.append(atoms)
-        self._count(atoms, wanted)
+        self._count(atoms, wanted, range(len(self.keys)))
         self._best = self._backoff = None
-        if len(self._examples) >= self._next_cut:
-            self._next_cut = max(len(self._examples) + 2, len(self._examples) * 5 // 4)
+        n = len(self._examples)
+        if n >= self._next_cut:
+            self._next_cut = max(n + 8, n * 3 // 2)
             self._recut()
 
-    def _count(self, atoms: tuple[Atom, ...], wanted: bool) -> None:
-        for key in self.keys:
-            cell = tuple(atoms[k] for k in key)
-            table = self._tables[key]
+    def _count(self, atoms: tuple[Atom, ...], wanted: bool, keys: Iterable[int], step: int = 1) -> None:
+        """Count an example in the cells of ``keys`` (``step`` −1: take it out again; a cell's
+        latest example is then left as it was)."""
+        tables, loo, cell_of = self._tables, self._loo, self._cell
+        for i in keys:
+            cell = cell_of[i](atoms)
+            table = tables[i]
             counts = table.get(cell)
             if counts is None:
                 counts = table[cell] = [0, 0, 0]
                 before = 0.0
             else:
                 before = _loo(counts[0], counts[1])
-            counts[0 if wanted else 1] += 1
-            counts[2] = wanted
-            self._loo[key] += _loo(counts[0], counts[1]) - before
+            counts[0 if wanted else 1] += step
+            if step > 0:
+                counts[2] = wanted
+            elif not counts[0] and not counts[1]:
+                del table[cell]
+            loo[i] += _loo(counts[0], counts[1]) - before
 
     def _recut(self) -> None:
-        cuts = dict(self.numeric)
+        """Choose the thresholds again; the examples whose interval moved change cells."""
+        moved = []
         for j, edges in self.numeric.items():
             pairs = [(ex[0][j], ex[2]) for ex in self._examples if ex[0][j] is not None]
             cut = best_cut([r for r, _ in pairs], [y for _, y in pairs])  # type: ignore[misc]
-            if cut is not None and cut not in edges:
-                cuts[j] = tuple(sorted((*edges, cut)))
-        if cuts == self.cuts:
+            cuts = tuple(sorted((*edges, cut))) if cut is not None and cut not in edges else edges
+            if cuts != self.cuts[j]:
+                self.cuts[j] = cuts
+                moved.append(j)
+        if not moved:
             return
-        self.cuts = cuts
-        self._tables = {k: {} for k in self.keys}
-        self._loo = dict.fromkeys(self.keys, 0.0)
-        self._atoms = []
-        for readings, codes, wanted, shared, _ in self._examples:
+        keys = [i for i, k in enumerate(self.keys) if any(j in k for j in moved)]
+        for e, (readings, codes, wanted, shared, _) in enumerate(self._examples):
             atoms = self.atoms(readings, codes, shared)
-            self._atoms.append(atoms)
-            self._count(atoms, wanted)
+            if atoms != self._atoms[e]:
+                self._count(self._atoms[e], wanted, keys, -1)
+                self._count(atoms, wanted, keys)
+                self._atoms[e] = atoms
 
     def best_key(self) -> Key:
-        """The key with the fewest leave-one-out errors (ties: more atoms of the prior, fewer
+        """The key with the least leave-one-out loss (ties: more atoms of the prior, fewer
         others, then the first)."""
         if self._best is None:
-            self._best = min(self.keys, key=self._rank)
-        return self._best
+            self._best = min(range(len(self.keys)), key=self._rank)
+        return self.keys[self._best]
 
-    def _rank(self, k: Key) -> tuple[float, int, int]:
-        return (round(self._loo[k], 6), -len(self.prior.intersection(k)), len(set(k) - self.prior))
+    def _rank(self, i: int) -> tuple[float, tuple[int, int]]:
+        return (round(self._loo[i], 6), self._prior_rank[i])
 
     def decide(
         self, readings: Sequence[float | None], codes: Sequence[int], *, shared: bool, threshold: float = 0.5
@@ -256,7 +287,7 @@ class ServiceLearner:
         found: tuple[Key, tuple[Atom, ...], Sequence[int]] | None = None
         for key in reversed(self.backoff()):
             cell = tuple(atoms[k] for k in key)
-            counts = self._tables[key].get(cell)
+            counts = self._tables[self._index[key]].get(cell)
             if counts is None:
                 break  # a more specific cell of this context holds nothing either
             prior = 0.5 if share is None else share
@@ -270,11 +301,11 @@ class ServiceLearner:
     def backoff(self) -> list[Key]:
         """The best key, then the best of its keys with one atom less, and so on to the empty key."""
         if self._backoff is None:
-            chain = [self.best_key()]
-            while chain[-1]:
-                atoms = set(chain[-1])
-                subs = [k for k in self.keys if len(k) == len(atoms) - 1 and set(k) < atoms]
-                chain.append(min(subs, key=self._rank))
+            i = self._index[self.best_key()]
+            chain = [self.keys[i]]
+            while self._subs[i]:
+                i = min(self._subs[i], key=self._rank)
+                chain.append(self.keys[i])
             self._backoff = chain
         return self._backoff
 
@@ -290,14 +321,16 @@ class ServiceLearner:
         """The interval of numeric feature ``j`` in a decision's cell, widened over neighbouring
         cells (the same other atoms) that decide the same way: the learned interval."""
         pos = decision.key.index(j)
-        k = decision.cell[pos]
+        atom = decision.cell[pos]
         cuts = self.cuts[j]
-        if not isinstance(k, int):
+        if not isinstance(atom, float) or (atom not in cuts and atom != -math.inf):
             return (-math.inf, math.inf)
-        table = self._tables[decision.key]
+        k = 0 if atom == -math.inf else cuts.index(atom) + 1  # the interval's position
+        table = self._tables[self._index[decision.key]]
 
         def same(i: int) -> bool:
-            cell = (*decision.cell[:pos], i, *decision.cell[pos + 1 :])
+            lower = cuts[i - 1] if i else -math.inf
+            cell = (*decision.cell[:pos], lower, *decision.cell[pos + 1 :])
             p, n, last = table.get(cell, (0, 0, 0))
             return p + n > 0 and _sign(p / (p + n), decision.threshold, last) == decision.sign
 
