@@ -130,6 +130,9 @@ class UserLayers:
         self._made_at: dict[str, int] = {}
         # per user: the share of wanted examples above which their answers propose
         self._threshold: dict[str, Threshold] = {}
+        # the latest answers: (user, point, the user's examples then, shared version), the
+        # shared answer and the user's answers there
+        self._last: tuple[tuple[Any, ...], frozenset[int], dict[int, Decision]] | None = None
 
     @property
     def users(self) -> list[str]:
@@ -170,8 +173,14 @@ class UserLayers:
     def _learn(self, user: str, example: Example, ident: int) -> None:
         learners = self._learners.setdefault(user, {})
         threshold = self._threshold.setdefault(user, Threshold())
-        shared = self._shared(Point(example.codes, example.readings))
         codes, readings = example.codes, example.readings
+        # the answers just given at this point (a correction follows its cognition) are the
+        # answers before this example; else they are asked again
+        last = self._last
+        if last is not None and last[0] == (user, codes, readings, ident - 1, self._version()):
+            shared, answers = last[1], last[2]
+        else:
+            shared, answers = self._shared(Point(codes, readings)), {}
         for a in range(len(self._effects)):
             if not self.changes(a, codes):
                 continue
@@ -181,10 +190,11 @@ class UserLayers:
                     self._n_features + 1, self._numeric, self.order, self._relevant(a)
                 )
             wanted = a in example.want
-            before = learner.decide(readings, codes, shared=a in shared)
+            before = answers.get(a) or learner.decide(readings, codes, shared=a in shared)
             if before.wanted + before.unwanted:
                 threshold.judge(before.share, wanted)
             learner.add(readings, codes, wanted, shared=a in shared, ident=ident)
+        self._last = None
 
     def learners(self, user: str) -> dict[int, ServiceLearner]:
         """A user's learners per service, made again if the shared tree changed since."""
@@ -214,11 +224,15 @@ class UserLayers:
         """Every service the user's evidence decides at ``p`` (propose or reject)."""
         learners = self.learners(user)
         threshold = self._value(user)
+        answers = {}
         for a, learner in learners.items():
             if self.changes(a, p.codes):
-                d = learner.decide(p.readings, p.codes, shared=a in shared, threshold=threshold)
-                if d.sign:
-                    yield a, d
+                answers[a] = learner.decide(p.readings, p.codes, shared=a in shared, threshold=threshold)
+        key = (user, p.codes, p.readings, len(self._examples[user]), self._version())
+        self._last = (key, shared, answers)
+        for a, d in answers.items():
+            if d.sign:
+                yield a, d
 
     def explain(self, user: str | None, a: int, decision: Decision) -> tuple[dict[str, str], dict[str, Any]]:
         """What a user's answer matched — per feature of its key, the value or the learned

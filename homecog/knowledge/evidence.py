@@ -23,7 +23,7 @@ tree answers.
 Thresholds: for each numeric feature, the reading that best separates the user's wanted and
 unwanted examples (Gini) is added to the home's bin edges, rounded to the shortest number
 between the two readings it separates, so the user's "fan from 23 °C" becomes a cut at 23.
-Thresholds are chosen again as the evidence grows (by half), and the tables recounted.
+Thresholds are chosen again each time the evidence has doubled, and the examples they move recounted.
 
 >>> learner = ServiceLearner(n_atoms=2, numeric={0: (25.0, 30.0)}, order=1)
 >>> for t, y in [(20.0, False), (22.0, False), (23.5, True), (24.0, True), (26.0, True), (21.0, False)]:
@@ -221,7 +221,7 @@ class ServiceLearner:
         self._best = self._backoff = None
         n = len(self._examples)
         if n >= self._next_cut:
-            self._next_cut = max(n + 8, n * 3 // 2)
+            self._next_cut = max(n + 8, 2 * n)
             self._recut()
 
     def _count(self, atoms: tuple[Atom, ...], wanted: bool, keys: Iterable[int], step: int = 1) -> None:
