@@ -21,9 +21,11 @@ one odd event; on a tie the latest word wins; where a user has no example at all
 tree answers.
 
 Thresholds: for each numeric feature, the reading that best separates the user's wanted and
-unwanted examples (Gini) is added to the home's bin edges, rounded to the shortest number
-between the two readings it separates, so the user's "fan from 23 °C" becomes a cut at 23.
-Thresholds are chosen again each time the evidence has doubled, and the examples they move recounted.
+unwanted examples (Gini) is added to the home's bin edges, rounded to the roundest number
+between the two readings it separates (nearest their midpoint), so the user's "fan from 23 °C"
+becomes a cut at 23.
+Thresholds are chosen again each time the evidence has grown by half, and the examples they
+move recounted.
 
 >>> learner = ServiceLearner(n_atoms=2, numeric={0: (25.0, 30.0)}, order=1)
 >>> for t, y in [(20.0, False), (22.0, False), (23.5, True), (24.0, True), (26.0, True), (21.0, False)]:
@@ -85,17 +87,20 @@ def _sign(share: float, threshold: float, last: int) -> int:
 
 
 def round_cut(low: float, high: float) -> float:
-    """The shortest number in (low, high]: a threshold between two readings as a person says it.
+    """A threshold between two readings as a person says it: of the roundest numbers in
+    (low, high] — multiples of 10, 5, 1, 0.5, 0.1, … — the nearest to the midpoint.
 
-    >>> round_cut(22.97, 23.02), round_cut(15.3, 15.8), round_cut(0.1234, 0.1236)
-    (23.0, 15.5, 0.1235)
+    >>> round_cut(22.8, 24.1), round_cut(15.3, 15.8), round_cut(0.1234, 0.1236), round_cut(-3.2, 40)
+    (23.0, 15.5, 0.1235, 0.0)
     """
-    for digits in range(0, 7):
-        scale = 10.0**digits
-        for step in (10.0, 5.0, 2.0, 1.0) if digits == 0 else (5.0, 1.0):
-            cand = math.floor(low * scale / step + 1) * step / scale
-            if low < cand <= high:
-                return round(cand, digits)
+    mid = (low + high) / 2
+    for digits in range(-1, 7):
+        for step in (5.0, 1.0):
+            size = step * 10.0**-digits
+            nearest = round(mid / size) * size
+            for cand in (nearest, nearest - size, nearest + size):
+                if low < cand <= high:
+                    return round(cand, max(digits + 1, 0))
     return high
 
 
@@ -221,7 +226,7 @@ class ServiceLearner:
         self._best = self._backoff = None
         n = len(self._examples)
         if n >= self._next_cut:
-            self._next_cut = max(n + 8, 2 * n)
+            self._next_cut = max(n + 8, n * 3 // 2)
             self._recut()
 
     def _count(self, atoms: tuple[Atom, ...], wanted: bool, keys: Iterable[int], step: int = 1) -> None:
