@@ -145,25 +145,6 @@ class IHDRTree(ClusterUpdates, TreeSearch):
         self._dense = self._gindex = None
         self._shared_version += 1
 
-    def _shared_state_version(self) -> int:
-        return self._shared_version
-
-    def _relevant_features(self, a: int) -> frozenset[int]:
-        """The context features that matter to service ``a`` in the shared tree: those that at
-        least half of its clusters (weighed by what they learned) constrain."""
-        clusters = self._services[a].clusters
-        total = sum(max(c.count, 1) for c in clusters)
-        weight = [0.0] * self._space.n_features
-        for c in clusters:
-            for j in c.conditions:
-                if j < len(weight):
-                    weight[j] += max(c.count, 1)
-        return frozenset(j for j, w in enumerate(weight) if total and w * 2 >= total)
-
-    def _shared_services(self, p: Point) -> frozenset[int]:
-        """The services the shared tree proposes at ``p`` (what a user's layer takes as prior)."""
-        return frozenset(node.service for node, _ in self._search(p, None)[0])
-
     def _new_cluster(self, conditions: dict[int, Condition], **kw: Any) -> Cluster:
         cluster = Cluster(id=self._next_id, conditions=conditions, seq=self._seq, **kw)
         self._next_id += 1

@@ -49,6 +49,7 @@ class TreeSearch:
     _described: dict[tuple[Any, ...], dict[str, str]]
     _strides: tuple[int, ...]
     _dense_ok: bool
+    _shared_version: int
 
     def point(self, x: Mapping[str, object] | Point) -> Point:
         raise NotImplementedError
@@ -134,6 +135,25 @@ class TreeSearch:
                     continue
                 hits.append((node, cluster))
         return self._ordered(hits), False if hits else self._idle_responds(p)
+
+    def _shared_state_version(self) -> int:
+        return self._shared_version
+
+    def _relevant_features(self, a: int) -> frozenset[int]:
+        """The context features that matter to service ``a`` in the shared tree: those that at
+        least half of its clusters (weighed by what they learned) constrain."""
+        clusters = self._services[a].clusters
+        total = sum(max(c.count, 1) for c in clusters)
+        weight = [0.0] * self._space.n_features
+        for c in clusters:
+            for j in c.conditions:
+                if j < len(weight):
+                    weight[j] += max(c.count, 1)
+        return frozenset(j for j, w in enumerate(weight) if total and w * 2 >= total)
+
+    def _shared_services(self, p: Point) -> frozenset[int]:
+        """The services the shared tree proposes at ``p`` (what a user's layer takes as prior)."""
+        return frozenset(node.service for node, _ in self._search(p, None)[0])
 
     def _idle_responds(self, p: Point) -> bool:
         """Whether "nothing to do" answers a context (its category's cluster too, in paper mode)."""
