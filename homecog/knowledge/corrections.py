@@ -41,8 +41,10 @@ from homecog.home.codec import Point, Space
 from homecog.home.model import Home, format_number
 from homecog.knowledge.evidence import Decision, ServiceLearner
 
-#: keys of at most this many atoms (features and the shared answer)
-ORDER = 2
+#: keys of at most this many atoms (features and the shared answer) ...
+ORDER = 3
+#: ... fewer where a home has so many features that there would be more keys than this
+MAX_KEYS = 100
 #: examples judged before a user's threshold is chosen from them (until then: the majority)
 CALIBRATE = 20
 #: the shares of wanted examples a user's threshold is chosen among
@@ -111,6 +113,9 @@ class UserLayers:
         order: int = ORDER,
     ) -> None:
         self.home = home
+        atoms = space.n_features + 1
+        while order > 1 and sum(math.comb(atoms - (r > 2), r - (r > 2)) for r in range(order + 1)) > MAX_KEYS:
+            order -= 1
         self.order = order
         self._shared = shared
         self._version = version

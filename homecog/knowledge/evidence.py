@@ -24,8 +24,8 @@ Thresholds: for each numeric feature, the reading that best separates the user's
 unwanted examples (Gini) is added to the home's bin edges, rounded to the roundest number
 between the two readings it separates (nearest their midpoint), so the user's "fan from 23 °C"
 becomes a cut at 23.
-Thresholds are chosen again each time the evidence has grown by half, and the examples they
-move recounted.
+Thresholds are chosen again each time the evidence has doubled, and the examples they move
+recounted.
 
 >>> learner = ServiceLearner(n_atoms=2, numeric={0: (25.0, 30.0)}, order=1)
 >>> for t, y in [(20.0, False), (22.0, False), (23.5, True), (24.0, True), (26.0, True), (21.0, False)]:
@@ -169,7 +169,11 @@ class ServiceLearner:
         self.numeric = numeric
         self.order = order
         self.prior = prior
-        self.keys: list[Key] = [k for r in range(order + 1) for k in combinations(range(n_atoms), r)]
+        # keys of up to two atoms; of three or more only with the shared answer among them (the
+        # shared knowledge refined by two features)
+        self.keys: list[Key] = [
+            k for r in range(order + 1) for k in combinations(range(n_atoms), r) if r <= 2 or n_atoms - 1 in k
+        ]
         self.cuts: dict[int, tuple[float, ...]] = dict(numeric)
         # per example: readings, codes, wanted, the shared answer, the caller's id for it
         self._examples: list[tuple[Sequence[float | None], Sequence[int], bool, bool, int]] = []
@@ -226,7 +230,7 @@ class ServiceLearner:
         self._best = self._backoff = None
         n = len(self._examples)
         if n >= self._next_cut:
-            self._next_cut = max(n + 8, n * 3 // 2)
+            self._next_cut = max(n + 8, 2 * n)
             self._recut()
 
     def _count(self, atoms: tuple[Atom, ...], wanted: bool, keys: Iterable[int], step: int = 1) -> None:
