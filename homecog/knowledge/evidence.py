@@ -17,8 +17,8 @@ varies while the wish stays the same only splits cells and raises it. The answer
 is the share of wanted examples in its cell under that key, drawn a little toward the share of
 the key with one atom less (and so on down to every example), compared with a threshold — ½, or
 the user's own (:mod:`homecog.knowledge.corrections`). So a wish repeated ten times outweighs
-one odd event; on a tie the latest word wins; where a user has no example at all, the shared
-tree answers.
+one odd event; on a tie the latest word wins; where the cell holds no example, the shared tree
+answers.
 
 Thresholds: for each numeric feature, the reading that best separates the user's wanted and
 unwanted examples (Gini) is added to the home's bin edges, rounded to the roundest number
@@ -289,23 +289,20 @@ class ServiceLearner:
         """The answer at a context: the share of wanted examples in its cell under the best key,
         drawn toward the share under the key with one atom less (SMOOTHING examples' worth), and
         so on down to the empty key; proposed above ``threshold``, rejected below it, on a tie
-        the latest example of the cell decides. The key and cell reported are the most specific
-        that hold an example."""
+        the latest example of the cell decides. Where the cell under the best key holds no
+        example, the evidence says nothing (0): the shared tree answers."""
         atoms = self.atoms(readings, codes, shared)
-        share: float | None = None
-        found: tuple[Key, tuple[Atom, ...], Sequence[int]] | None = None
-        for key in reversed(self.backoff()):
-            cell = tuple(atoms[k] for k in key)
-            counts = self._tables[self._index[key]].get(cell)
-            if counts is None:
-                break  # a more specific cell of this context holds nothing either
-            prior = 0.5 if share is None else share
-            share = (counts[0] + SMOOTHING * prior) / (counts[0] + counts[1] + SMOOTHING)
-            found = (key, cell, counts)
-        if found is None or share is None:
-            return Decision(0, (), (), 0, 0, threshold)
-        key, cell, (p, n, last) = found
-        return Decision(_sign(share, threshold, last), key, cell, p, n, threshold, share)
+        chain = self.backoff()
+        best = chain[0]
+        cell = tuple(atoms[k] for k in best)
+        if cell not in self._tables[self._index[best]]:
+            return Decision(0, best, cell, 0, 0, threshold)
+        share = 0.5
+        for key in reversed(chain):  # every cell on the way holds the best cell's examples
+            counts = self._tables[self._index[key]][tuple(atoms[k] for k in key)]
+            share = (counts[0] + SMOOTHING * share) / (counts[0] + counts[1] + SMOOTHING)
+        p, n, last = counts
+        return Decision(_sign(share, threshold, last), best, cell, p, n, threshold, share)
 
     def backoff(self) -> list[Key]:
         """The best key, then the best of its keys with one atom less, and so on to the empty key."""
