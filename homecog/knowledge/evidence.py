@@ -17,8 +17,8 @@ varies while the wish stays the same only splits cells and raises it. The answer
 is the share of wanted examples in its cell under that key, drawn a little toward the share of
 the key with one atom less (and so on down to every example), compared with a threshold — ½, or
 the user's own (:mod:`homecog.knowledge.corrections`). So a wish repeated ten times outweighs
-one odd event; on a tie the latest word wins; where the cell holds no example, the shared tree
-answers.
+one odd event; on a tie the latest word wins; where the cell holds no example, a cell with
+fewer atoms and enough examples answers, else the shared tree.
 
 Thresholds: for each numeric feature, the reading that best separates the user's wanted and
 unwanted examples (Gini) is added to the home's bin edges, rounded to the roundest number
@@ -51,6 +51,8 @@ from itertools import combinations
 Atom = object
 #: how many examples' worth a cell's share is drawn toward the share of its key less one atom
 SMOOTHING = 3.0
+#: the fewest examples a cell of a key with fewer atoms must hold to answer for an empty one
+BACKOFF = 5
 Key = tuple[int, ...]
 
 
@@ -290,19 +292,23 @@ class ServiceLearner:
         drawn toward the share under the key with one atom less (SMOOTHING examples' worth), and
         so on down to the empty key; proposed above ``threshold``, rejected below it, on a tie
         the latest example of the cell decides. Where the cell under the best key holds no
-        example, the evidence says nothing (0): the shared tree answers."""
+        example, the next key of the chain whose cell holds at least BACKOFF examples answers;
+        where none does, the evidence says nothing (0) and the shared tree answers."""
         atoms = self.atoms(readings, codes, shared)
         chain = self.backoff()
-        best = chain[0]
-        cell = tuple(atoms[k] for k in best)
-        if cell not in self._tables[self._index[best]]:
-            return Decision(0, best, cell, 0, 0, threshold)
+        for depth, key in enumerate(chain):
+            cell = tuple(atoms[k] for k in key)
+            counts = self._tables[self._index[key]].get(cell)
+            if counts is not None and (depth == 0 or counts[0] + counts[1] >= BACKOFF):
+                break
+        else:
+            return Decision(0, chain[0], (), 0, 0, threshold)
         share = 0.5
-        for key in reversed(chain):  # every cell on the way holds the best cell's examples
-            counts = self._tables[self._index[key]][tuple(atoms[k] for k in key)]
-            share = (counts[0] + SMOOTHING * share) / (counts[0] + counts[1] + SMOOTHING)
+        for sub in reversed(chain[depth:]):  # every cell on the way holds this cell's examples
+            c = self._tables[self._index[sub]][tuple(atoms[k] for k in sub)]
+            share = (c[0] + SMOOTHING * share) / (c[0] + c[1] + SMOOTHING)
         p, n, last = counts
-        return Decision(_sign(share, threshold, last), best, cell, p, n, threshold, share)
+        return Decision(_sign(share, threshold, last), key, cell, p, n, threshold, share)
 
     def backoff(self) -> list[Key]:
         """The best key, then the best of its keys with one atom less, and so on to the empty key."""
