@@ -61,7 +61,12 @@ def cognize(
         return
     for i, e in enumerate(result.explanations, 1):
         why = "; ".join(f"{k} {v}" for k, v in e.conditions.items()) or "always"
-        source = f"{e.user}'s correction" if e.user else f"cluster {e.cluster}"
+        if e.evidence is not None:
+            n = e.evidence["agreed"] + e.evidence["disagreed"]
+            numbers = ", ".join(f"#{c}" for c in e.evidence["corrections"])
+            source = f"{e.evidence['agreed']} of {n} of {e.user}'s corrections agree ({numbers})"
+        else:
+            source = f"{e.user}'s correction" if e.user else f"cluster {e.cluster}"
         stdout.print(f"{i}. {e.service}  [dim]({e.category}; {source}: {why})[/dim]")
 
 

@@ -1,159 +1,285 @@
-"""Corrections by the household's members (SPEC §7): a layer of clusters per user.
+"""Corrections by the household's members (SPEC §7): per user, per service, counted evidence.
 
-A correction (context, the services the user wants, user) compares the wanted services with
-what the robot would do *for that user*: missing ones are added (+), surplus ones rejected (−),
-as clusters of that user and service. The shared tree is never changed by a correction, so
-another user's answers stay as they were; a user's most specific matching cluster (ties: the
-latest) overrides the shared answer.
+A correction (context, the services the user wants, user) is an example for every service it
+concerns: wanted there, or not. Per user and service a
+:class:`~homecog.knowledge.evidence.ServiceLearner` counts them, learns which features matter
+and the user's own thresholds, and answers over the shared tree: it proposes or rejects the
+service where its evidence says so, and leaves the context to the shared tree where it has
+none (or a tie). The shared tree is never changed by a correction, so another user's answers
+stay as they were.
 
-A new cluster covers the dimensions of the shared cluster of that service nearest to the
-context (they are what matters to it), with the context's values; it is narrowed where it would
-cover one of the user's opposite examples, opposite clusters covering the new context are
-narrowed in turn (or dropped when made from the very same context: the latest word wins), and
-two same-label clusters one dimension away merge unless the union would cover an opposite
-example.
+A user's layer is a pure function of their corrections in order (and of the shared tree, which
+answers the prior): the store keeps only the corrections, in the experience log, and the layer
+is made again from them on load.
 
->>> from homecog.knowledge.model import Cluster
->>> from homecog.home.codec import Point
->>> layers = UserLayers(n_dims=3)
->>> shared = [Cluster(id=1, conditions={0: frozenset({1}), 2: frozenset({0})})]
->>> layers.add_example("ann", 4, Point((1, 0, 1), (None,) * 3), -1, shared, new_id=100)
->>> layers.match("ann", 4, Point((1, 2, 1), (None,) * 3)).polarity   # the second dimension does not matter
--1
->>> layers.match("kim", 4, Point((1, 2, 1), (None,) * 3)) is None
+>>> from homecog.home import load_home
+>>> from homecog.home.codec import Space
+>>> home = load_home("paper")
+>>> space = Space(home)
+>>> layers = UserLayers(home, space, shared=lambda p: frozenset(), version=lambda: 0)
+>>> x = {"time": "19:00", "temperature": 24, "illumination": 200, "location": "sofa",
+...      "posture": "sit", "behavior": "read", "window": "off", "curtain": "off",
+...      "tv_living": "off", "tv_bedroom": "off", "ac_living": "off", "ac_bedroom": "off",
+...      "lamp": "off", "ceiling_light": "off"}
+>>> lamp = home.service_index("TurnOnLamp")
+>>> layers.add("ann", space.point(x), frozenset({lamp}))
+>>> layers.decide("ann", lamp, space.point({**x, "tv_living": "on"}), False).sign  # other devices
+1
+>>> layers.decide("kim", lamp, space.point(x), False) is None
 True
 """
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+import math
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass
+from typing import Any
 
-from homecog.home.codec import Point
-from homecog.knowledge.model import Cluster, Condition, Numeric, covers
+from homecog.home.clock import format_clock
+from homecog.home.codec import Point, Space
+from homecog.home.model import Home, format_number
+from homecog.knowledge.evidence import Decision, ServiceLearner
+
+#: keys of at most this many atoms (features and the shared answer) ...
+ORDER = 3
+#: ... fewer where a home has so many features that there would be more keys than this
+MAX_KEYS = 100
+#: examples judged before a user's threshold is chosen from them (until then: the majority)
+CALIBRATE = 20
+#: the shares of wanted examples a user's threshold is chosen among
+THRESHOLDS = (0.1, 0.15, 0.2, 0.25, 0.3, 0.35, 0.4, 0.45, 0.5)
+
+
+class Threshold:
+    """The share of wanted examples above which a user's answers propose a service: of
+    THRESHOLDS, the one that would have given the best F1 on the user's corrections so far,
+    each example judged before it was counted (ties: the nearest to ½); ½ until CALIBRATE
+    examples were judged.
+
+    >>> t = Threshold()
+    >>> for _ in range(20):
+    ...     t.judge(0.9, True); t.judge(0.3, True); t.judge(0.3, False); t.judge(0.1, False)
+    >>> t.value
+    0.25
+    """
+
+    def __init__(self) -> None:
+        self._tallies = [[0, 0, 0] for _ in THRESHOLDS]  # hits, proposed, wanted
+        self._judged = 0
+        self.value = 0.5
+
+    def judge(self, share: float, wanted: bool) -> None:
+        for t, tally in zip(THRESHOLDS, self._tallies, strict=True):
+            proposed = share > t
+            tally[0] += proposed and wanted
+            tally[1] += proposed
+            tally[2] += wanted
+        self._judged += 1
+        if self._judged >= CALIBRATE:
+            best = max(range(len(THRESHOLDS)), key=lambda i: (_f1(*self._tallies[i]), THRESHOLDS[i]))
+            self.value = THRESHOLDS[best]
+
+
+def _f1(hits: int, proposed: int, wanted: int) -> float:
+    return 2 * hits / (proposed + wanted) if proposed + wanted else 0.0
+
+
+@dataclass(frozen=True)
+class Example:
+    """One correction as the layer keeps it: the context and the services wanted."""
+
+    codes: tuple[int, ...]
+    readings: tuple[float | None, ...]
+    want: frozenset[int]
 
 
 class UserLayers:
-    """Every user's corrections: per user, per service position, their clusters in seq order."""
+    """Every user's corrections and what they learned, per service position.
 
-    def __init__(self, n_dims: int) -> None:
-        self.n_dims = n_dims
-        self._users: dict[str, dict[int, list[Cluster]]] = {}
+    ``shared(point)`` gives the services the shared tree proposes at a point (the prior);
+    ``version()`` changes whenever the shared tree does, and the learners are then made again;
+    ``relevant(a)`` gives the context features that the shared tree says matter to service ``a``.
+    """
+
+    def __init__(
+        self,
+        home: Home,
+        space: Space,
+        *,
+        shared: Callable[[Point], frozenset[int]],
+        version: Callable[[], int],
+        relevant: Callable[[int], frozenset[int]] = lambda a: frozenset(),
+        order: int = ORDER,
+    ) -> None:
+        self.home = home
+        atoms = space.n_features + 1
+        while order > 1 and sum(math.comb(atoms - (r > 2), r - (r > 2)) for r in range(order + 1)) > MAX_KEYS:
+            order -= 1
+        self.order = order
+        self._shared = shared
+        self._version = version
+        self._relevant = relevant
+        self._n_features = space.n_features
+        # per numeric feature, its bins' edges: a threshold learned from readings joins them
+        self._numeric = {
+            j: tuple(sorted({x for b in f.bins for x in b if not math.isinf(x)}))
+            for j, f in enumerate(home.features)
+            if f.bins
+        }
+        # per service, the (dimension, code) it sets: it changes something where one differs
+        index = space.index
+        self._effects = [tuple((index[d], int(on)) for d, on in s.sets) for s in home.services]
+        self._examples: dict[str, list[Example]] = {}
+        self._learners: dict[str, dict[int, ServiceLearner]] = {}
+        self._made_at: dict[str, int] = {}
+        # per user: the share of wanted examples above which their answers propose
+        self._threshold: dict[str, Threshold] = {}
+        # the latest answers: (user, point, the user's examples then, shared version), the
+        # shared answer and the user's answers there
+        self._last: tuple[tuple[Any, ...], frozenset[int], dict[int, Decision]] | None = None
 
     @property
     def users(self) -> list[str]:
-        return sorted(self._users)
+        return sorted(self._examples)
 
-    def layer(self, user: str) -> dict[int, list[Cluster]]:
-        """A user's clusters per service (empty for a user without corrections)."""
-        return self._users.get(user, {})
+    def changes(self, a: int, codes: tuple[int, ...]) -> bool:
+        """Whether service ``a`` would change anything at these codes (interactions always do)."""
+        effects = self._effects[a]
+        return not effects or any(codes[j] != code for j, code in effects)
 
-    def set_layer(self, user: str, layer: dict[int, list[Cluster]]) -> None:
-        """Replace a user's layer (the store, when another process corrected)."""
-        if layer:
-            self._users[user] = layer
+    def examples(self, user: str) -> list[Example]:
+        return self._examples.get(user, [])
+
+    def set_examples(self, user: str, examples: list[Example]) -> None:
+        """Replace a user's corrections (the store, loading them from the log)."""
+        for made in (self._learners, self._made_at, self._threshold):
+            made.pop(user, None)
+        if examples:
+            self._examples[user] = list(examples)
         else:
-            self._users.pop(user, None)
+            self._examples.pop(user, None)
 
-    def add_cluster(self, user: str, service: int, cluster: Cluster) -> None:
-        """Append a stored cluster to a user's layer (the store, loading)."""
-        self._users.setdefault(user, {}).setdefault(service, []).append(cluster)
+    def n_examples(self, user: str) -> int:
+        return len(self._examples.get(user, []))
 
-    def n_clusters(self, user: str) -> int:
-        return sum(len(v) for v in self._users.get(user, {}).values())
+    def items(self) -> Iterator[tuple[str, list[Example]]]:
+        return iter(sorted(self._examples.items()))
 
-    def items(self) -> Iterator[tuple[str, dict[int, list[Cluster]]]]:
-        return iter(sorted(self._users.items()))
+    def add(self, user: str, p: Point, want: frozenset[int]) -> None:
+        """A user's correction: the services ``want`` wanted at ``p``; counted at once."""
+        example = Example(p.codes, p.readings, frozenset(want))
+        examples = self._examples.setdefault(user, [])
+        examples.append(example)
+        if self._made_at.get(user) == self._version():
+            self._learn(user, example, len(examples))
+        # else: made again from every example at the next answer
 
-    def match(self, user: str | None, a: int, p: Point) -> Cluster | None:
-        """The user's most specific cluster of service ``a`` matching ``p`` (ties: the latest)."""
-        if user is None:
-            return None
-        best = None
-        for cluster in self._users.get(user, {}).get(a, []):
-            if cluster.matches(p) and (
-                best is None or (len(cluster.conditions), cluster.seq) > (len(best.conditions), best.seq)
-            ):
-                best = cluster
-        return best
-
-    def add_example(
-        self, user: str, a: int, p: Point, polarity: int, shared: list[Cluster], *, new_id: int
-    ) -> None:
-        """Add a user's example of service ``a`` (+1 wanted, −1 not) at ``p`` to their layer,
-        generalized where the shared clusters of that service say it may be; ``new_id`` is the
-        id a new cluster takes."""
-        clusters = self._users.setdefault(user, {}).setdefault(a, [])
-        codes = p.codes
-        # 1. the features that matter: those of the shared cluster nearest to this context
-        dims = self._relevant_dims(shared, p)
-        box = {j: frozenset([codes[j]]) for j in dims}
-        # 2. never cover an example of the opposite label: add a dimension where they differ
-        for other in clusters:
-            if other.polarity != polarity and other.seed is not None and covers(box, other.seed):
-                box = self._specialize(box, codes, other.seed)
-        # 3. clusters of the opposite label that cover this context give way
-        for other in list(clusters):
-            if other.polarity != polarity and covers(other.conditions, codes):
-                if other.seed is None or other.seed == codes:
-                    clusters.remove(other)
-                else:
-                    other.conditions = self._specialize(dict(other.conditions), other.seed, codes)
-        # 4. merge with a same-label cluster one dimension away, if nothing opposite falls inside
-        seq = 1 + max((c.seq for cs in self._users.get(user, {}).values() for c in cs), default=0)
-        new = Cluster(
-            id=new_id,
-            conditions=box,
-            count=1,
-            user=user,
-            polarity=polarity,  # type: ignore[arg-type]
-            seed=codes,
-            seq=seq,
-        )
-        opposite = [o.seed for o in clusters if o.polarity != polarity and o.seed is not None]
-        for other in clusters:
-            if other.polarity != polarity or other.conditions.keys() != new.conditions.keys():
+    def _learn(self, user: str, example: Example, ident: int) -> None:
+        learners = self._learners.setdefault(user, {})
+        threshold = self._threshold.setdefault(user, Threshold())
+        codes, readings = example.codes, example.readings
+        # the answers just given at this point (a correction follows its cognition) are the
+        # answers before this example; else they are asked again
+        last = self._last
+        if last is not None and last[0] == (user, codes, readings, ident - 1, self._version()):
+            shared, answers = last[1], last[2]
+        else:
+            shared, answers = self._shared(Point(codes, readings)), {}
+        for a in range(len(self._effects)):
+            if not self.changes(a, codes):
                 continue
-            differ = [j for j in new.conditions if new.conditions[j] != other.conditions[j]]
-            if len(differ) == 1:
-                merged = {j: new.conditions[j] | other.conditions[j] for j in new.conditions}  # type: ignore[operator]
-                if not any(covers(merged, s) for s in opposite):
-                    other.conditions = merged
-                    other.count += 1
-                    other.seq = new.seq
-                    # keep the list in seq order, the order the store loads a layer in
-                    clusters.remove(other)
-                    clusters.append(other)
-                    return
-        clusters.append(new)
-
-    def _relevant_dims(self, shared: list[Cluster], p: Point) -> list[int]:
-        best: Cluster | None = None
-        best_agree = -1
-        for cluster in shared:
-            if any(isinstance(c, Numeric) for c in cluster.conditions.values()):
-                agree = sum(
-                    1 for j, c in cluster.conditions.items() if not isinstance(c, Numeric) and p.codes[j] in c
+            learner = learners.get(a)
+            if learner is None:
+                learner = learners[a] = ServiceLearner(
+                    self._n_features + 1, self._numeric, self.order, self._relevant(a)
                 )
-            else:
-                agree = sum(1 for j, c in cluster.conditions.items() if p.codes[j] in c)  # type: ignore[operator]
-            if agree > best_agree or (
-                agree == best_agree and best is not None and len(cluster.conditions) < len(best.conditions)
-            ):
-                best, best_agree = cluster, agree
-        if best is None or not best.conditions:
-            return list(range(self.n_dims))
-        return sorted(best.conditions)
+            wanted = a in example.want
+            before = answers.get(a) or learner.decide(readings, codes, shared=a in shared)
+            if before.wanted + before.unwanted:
+                threshold.judge(before.share, wanted)
+            learner.add(readings, codes, wanted, shared=a in shared, ident=ident)
+        self._last = None
 
-    def _specialize(
-        self, box: dict[int, Condition], keep: tuple[int, ...], drop: tuple[int, ...]
-    ) -> dict[int, Condition]:
-        """Narrow ``box`` (made around ``keep``) so that it no longer covers ``drop``."""
-        free = [j for j in range(self.n_dims) if j not in box and keep[j] != drop[j]]
-        if free:
-            box[free[0]] = frozenset([keep[free[0]]])
-            return box
-        for j, cond in box.items():  # a related dimension with a value set: shrink it
-            if drop[j] in cond and keep[j] != drop[j]:  # type: ignore[operator]
-                box[j] = cond - {drop[j]}  # type: ignore[operator]
-                return box
-        return box
+    def learners(self, user: str) -> dict[int, ServiceLearner]:
+        """A user's learners per service, made again if the shared tree changed since."""
+        version = self._version()
+        if self._made_at.get(user) != version:
+            self._learners[user] = {}
+            self._made_at[user] = version
+            self._threshold.pop(user, None)
+            for i, example in enumerate(self._examples.get(user, []), start=1):
+                self._learn(user, example, i)
+        return self._learners.get(user, {})
+
+    def _value(self, user: str) -> float:
+        threshold = self._threshold.get(user)
+        return 0.5 if threshold is None else threshold.value
+
+    def decide(self, user: str | None, a: int, p: Point, shared: bool) -> Decision | None:
+        """The user's evidence about service ``a`` at ``p``; None without any."""
+        if user is None or user not in self._examples:
+            return None
+        learner = self.learners(user).get(a)
+        if learner is None or not self.changes(a, p.codes):
+            return None
+        return learner.decide(p.readings, p.codes, shared=shared, threshold=self._value(user))
+
+    def decisions(self, user: str, p: Point, shared: frozenset[int]) -> Iterator[tuple[int, Decision]]:
+        """Every service the user's evidence decides at ``p`` (propose or reject)."""
+        learners = self.learners(user)
+        threshold = self._value(user)
+        answers = {}
+        for a, learner in learners.items():
+            if self.changes(a, p.codes):
+                answers[a] = learner.decide(p.readings, p.codes, shared=a in shared, threshold=threshold)
+        key = (user, p.codes, p.readings, len(self._examples[user]), self._version())
+        self._last = (key, shared, answers)
+        for a, d in answers.items():
+            if d.sign:
+                yield a, d
+
+    def explain(self, user: str | None, a: int, decision: Decision) -> tuple[dict[str, str], dict[str, Any]]:
+        """What a user's answer matched — per feature of its key, the value or the learned
+        interval — and its evidence: the corrections (the user's 1st, 2nd, …) in that cell that
+        agree, how many agreed and how many did not."""
+        assert user is not None
+        learner = self.learners(user)[a]
+        conditions: dict[str, str] = {}
+        for pos, j in enumerate(decision.key):
+            if j == self._n_features:
+                conditions["shared knowledge"] = (
+                    "proposes it" if decision.cell[pos] else "does not propose it"
+                )
+                continue
+            feature = self.home.features[j]
+            atom = decision.cell[pos]
+            if feature.bins is None:
+                conditions[feature.name] = feature.values[atom]  # type: ignore[index]
+            elif isinstance(atom, tuple):
+                conditions[feature.name] = f"{feature.values[atom[1]]} {feature.describe_bin(atom[1])}"  # type: ignore[index]
+            else:
+                conditions[feature.name] = _interval(feature, *learner.interval(decision, j))
+        agree = decision.sign > 0
+        members = [i for i, wanted in learner.members(decision) if wanted == agree]
+        evidence = {
+            "agreed": decision.wanted if agree else decision.unwanted,
+            "disagreed": decision.unwanted if agree else decision.wanted,
+            "corrections": members[-10:],
+        }
+        return conditions, evidence
+
+
+def _interval(feature: Any, low: float, high: float) -> str:
+    """A learned interval as people read it: ``≥ 23 °C``, ``[16, 25) °C``, ``18:30-07:00``."""
+    if feature.kind == "clock":
+        start, end = (0.0 if math.isinf(low) else low), (24.0 if math.isinf(high) else high)
+        return f"{format_clock(start)}-{format_clock(end)}"
+    unit = f" {feature.unit}" if feature.unit else ""
+    if math.isinf(low) and math.isinf(high):
+        return "any"
+    if math.isinf(low):
+        return f"< {format_number(high)}{unit}"
+    if math.isinf(high):
+        return f"≥ {format_number(low)}{unit}"
+    return f"[{format_number(low)}, {format_number(high)}){unit}"

@@ -54,7 +54,7 @@ from homecog.errors import ContextError
 from homecog.home.codec import Point, Space
 from homecog.home.model import Home
 from homecog.knowledge.box_index import BoxIndex, distinct_rows, group_min_max
-from homecog.knowledge.corrections import UserLayers
+from homecog.knowledge.corrections import Example, UserLayers
 from homecog.knowledge.group_index import GroupIndex
 from homecog.knowledge.model import (
     IDLE,
@@ -100,7 +100,14 @@ class IHDRTree(ClusterUpdates, TreeSearch):
             self._services.append(self._node(service.name, "service", self._category(service.category), i))
         self._idle = self._node(IDLE, "service", self._category(IDLE.lower()), len(home.services))
         self._index: dict[int, BoxIndex] = {n.id: BoxIndex() for n in self._all_services()}
-        self._layers = UserLayers(len(self._space))
+        self._shared_version = 0  # changes with the shared clusters; the users' layers follow it
+        self._layers = UserLayers(
+            home,
+            self._space,
+            shared=self._shared_services,
+            version=self._shared_state_version,
+            relevant=self._relevant_features,
+        )
         # _precedence[a, b]: how often a came before b in a learned sequence
         self._precedence = np.zeros((len(home.services), len(home.services)), dtype=np.int64)
         # multi mode: _dense[point, a] is the index in node a's clusters of the cluster that
@@ -136,6 +143,7 @@ class IHDRTree(ClusterUpdates, TreeSearch):
     def _changed(self) -> None:
         """Drop what is derived from the shared clusters (lookup tables); rebuilt on demand."""
         self._dense = self._gindex = None
+        self._shared_version += 1
 
     def _new_cluster(self, conditions: dict[int, Condition], **kw: Any) -> Cluster:
         cluster = Cluster(id=self._next_id, conditions=conditions, seq=self._seq, **kw)
@@ -159,9 +167,9 @@ class IHDRTree(ClusterUpdates, TreeSearch):
         return f"IHDRTree(home={self.home.name!r}, mode={self.mode!r})"
 
     def n_clusters(self, user: str | None = None) -> int:
-        """Clusters in the shared tree (or, with ``user``, in that user's layer)."""
+        """Clusters in the shared tree (or, with ``user``, the corrections in that user's layer)."""
         if user is not None:
-            return self._layers.n_clusters(user)
+            return self._layers.n_examples(user)
         return sum(len(n.clusters) for n in self.root.iter_dfs())
 
     # -- inputs ------------------------------------------------------------------------------
@@ -291,17 +299,17 @@ class IHDRTree(ClusterUpdates, TreeSearch):
     ) -> tuple[list[str], list[str]]:
         """A user's correction: the services they want in ``x``. Returns (added, rejected).
 
-        It takes effect for that user's next cognition at once. The shared experience
-        from learning is not changed, so other users' answers stay as they were.
+        It takes effect for that user's next cognition at once: it is counted as evidence, for
+        every service it concerns, in that user's layer (:mod:`homecog.knowledge.corrections`).
+        The shared experience from learning is not changed, so other users' answers stay as
+        they were.
         """
         p = self.point(x)
         wanted = self._service_positions(want)
         predicted = self._service_positions(self.predict_one(p, user))
         added = [a for a in wanted if a not in predicted]
         rejected = [a for a in predicted if a not in wanted]
-        for a, polarity in [(a, 1) for a in added] + [(a, -1) for a in rejected]:
-            self._layers.add_example(user, a, p, polarity, self._services[a].clusters, new_id=self._next_id)
-            self._next_id += 1
+        self._layers.add(user, p, frozenset(wanted))
         self.n_experiences += 1
         names = self.home.services
         return [names[a].name for a in added], [names[a].name for a in rejected]
@@ -346,8 +354,8 @@ class IHDRTree(ClusterUpdates, TreeSearch):
             node.clusters.append(cluster)
             if tree.mode == "multi" and node.id in tree._index:
                 tree._index[node.id].add(cluster)
-        for user, layer in state.users.items():
-            tree._layers.set_layer(user, layer)
+        for user, examples in state.users.items():
+            tree._layers.set_examples(user, examples)
         if state.precedence:
             tree._precedence = np.array(state.precedence, dtype=np.int64)
         tree._next_id = max(tree._next_id, state.next_id)
@@ -355,13 +363,13 @@ class IHDRTree(ClusterUpdates, TreeSearch):
         tree.n_experiences = state.n_experiences
         return tree
 
-    def user_clusters(self, user: str) -> dict[int, list[Cluster]]:
-        """A user's layer: their clusters per service position."""
-        return self._layers.layer(user)
+    def user_examples(self, user: str) -> list[Example]:
+        """A user's corrections, in order, as their layer keeps them."""
+        return self._layers.examples(user)
 
-    def set_user_layer(self, user: str, layer: dict[int, list[Cluster]]) -> None:
-        """Replace a user's layer (the store, when another process corrected meanwhile)."""
-        self._layers.set_layer(user, layer)
+    def set_user_examples(self, user: str, examples: list[Example]) -> None:
+        """Replace a user's corrections (the store, when another process corrected meanwhile)."""
+        self._layers.set_examples(user, examples)
 
     def service_node(self, a: int) -> Node:
         """The node of service position ``a``."""

@@ -76,6 +76,7 @@ class Cluster:
     polarity: int = 1  # +1 performs the service where it matches; −1 (user layer) rejects it
     seed: tuple[int, ...] | None = None  # the context a user cluster was made from
     seq: int = 0  # order of creation, the tie-breaker between equally specific user clusters
+    evidence: Any = None  # a user's answer (search): the Decision of their counted corrections
 
     @property
     def priority(self) -> float:
@@ -139,6 +140,7 @@ class Explanation:
     cluster: int
     user: str | None
     conditions: dict[str, str]
+    evidence: dict[str, Any] | None = None  # a user's answer: which corrections, how many agreed
 
     def as_dict(self) -> dict[str, Any]:
         return {
@@ -148,6 +150,7 @@ class Explanation:
             "cluster": self.cluster,
             "user": self.user,
             "conditions": self.conditions,
+            "evidence": self.evidence,
         }
 
 

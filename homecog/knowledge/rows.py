@@ -23,6 +23,7 @@ import numpy as np
 from homecog.home.codec import Space
 from homecog.home.model import Home
 from homecog.knowledge import sample_log
+from homecog.knowledge.corrections import Example
 from homecog.knowledge.model import Cluster, Numeric
 from homecog.knowledge.sample_log import SampleLog
 from homecog.knowledge.samples import SampleSet
@@ -62,6 +63,15 @@ def cluster_from_row(row: Any) -> Cluster:
         polarity=row.polarity,
         seed=None if row.seed is None else tuple(json.loads(row.seed)),
         seq=row.seq,
+    )
+
+
+def example_from_payload(home: Home, payload: dict[str, Any]) -> Example:
+    """A user's correction as their layer keeps it, from its ``experiences`` row."""
+    return Example(
+        codes=tuple(payload["codes"]),
+        readings=tuple(payload["readings"]),
+        want=frozenset(home.service_index(s) for s in payload["want"]),
     )
 
 

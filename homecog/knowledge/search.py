@@ -49,6 +49,7 @@ class TreeSearch:
     _described: dict[tuple[Any, ...], dict[str, str]]
     _strides: tuple[int, ...]
     _dense_ok: bool
+    _shared_version: int
 
     def point(self, x: Mapping[str, object] | Point) -> Point:
         raise NotImplementedError
@@ -85,18 +86,33 @@ class TreeSearch:
         return None
 
     def _search(self, p: Point, user: str | None) -> tuple[list[tuple[Node, Cluster]], bool]:
-        """Algorithm 3: the service nodes whose clusters respond, and whether Idle responded."""
+        """Algorithm 3: the service nodes whose clusters respond, and whether Idle responded;
+        then the user's evidence over them. A service that would change nothing is left out."""
+        hits, idle = self._shared_search(p)
+        changes = self._layers.changes
+        if any(not changes(node.service, p.codes) for node, _ in hits):
+            hits = [(node, c) for node, c in hits if changes(node.service, p.codes)]
+        if user is None or not self._layers.n_examples(user):
+            return hits, idle
+        chosen = {node.service: (node, c) for node, c in hits}
+        shared = frozenset(chosen)
+        for a, decision in self._layers.decisions(user, p, shared):
+            idle = True  # the user's evidence answered: the context is not unknown
+            if decision.sign > 0:
+                chosen[a] = (self._services[a], Cluster(id=-1, conditions={}, user=user, evidence=decision))
+            else:
+                chosen.pop(a, None)
+        if len(chosen) == len(hits) and all(chosen.get(n.service, (n, None))[1] is c for n, c in hits):
+            return hits, idle
+        return self._ordered([chosen[a] for a in sorted(chosen)]), idle
+
+    def _shared_search(self, p: Point) -> tuple[list[tuple[Node, Cluster]], bool]:
         hits: list[tuple[Node, Cluster]] = []
         idle = False
         if self._dense_ok:
             row = self._dense_table()[sum(map(operator.mul, p.codes, self._strides))].tolist()
-            layer = self._layers.layer(user) if user is not None else {}
             for node, i in zip(self._all_services(), row, strict=True):
-                user_hit = self._layers.match(user, node.service, p) if node.service in layer else None
-                if user_hit is not None:
-                    if user_hit.polarity > 0:
-                        hits.append((node, user_hit))
-                elif i >= 0:
+                if i >= 0:
                     if node is self._idle:
                         idle = True
                     else:
@@ -104,7 +120,7 @@ class TreeSearch:
             return self._ordered(hits), idle
         index = self._group_index() if self.mode == "multi" else None
         if index is not None:
-            hits = self._group_hits(index, p, user)
+            hits = self._group_hits(index, p)
             return self._ordered(hits), False if hits else self._idle_responds(p)
         for category in self.root.children:
             # a category is searched when its cluster responds (paper); in multi mode a
@@ -114,12 +130,30 @@ class TreeSearch:
             for node in category.children:
                 if node is self._idle:
                     continue  # asked only when no service answers
-                user_hit = self._layers.match(user, node.service, p) if user is not None else None
-                cluster = user_hit if user_hit is not None else self._shared_match(node, p)
-                if cluster is None or cluster.polarity < 0:
+                cluster = self._shared_match(node, p)
+                if cluster is None:
                     continue
                 hits.append((node, cluster))
         return self._ordered(hits), False if hits else self._idle_responds(p)
+
+    def _shared_state_version(self) -> int:
+        return self._shared_version
+
+    def _relevant_features(self, a: int) -> frozenset[int]:
+        """The context features that matter to service ``a`` in the shared tree: those that at
+        least half of its clusters (weighed by what they learned) constrain."""
+        clusters = self._services[a].clusters
+        total = sum(max(c.count, 1) for c in clusters)
+        weight = [0.0] * self._space.n_features
+        for c in clusters:
+            for j in c.conditions:
+                if j < len(weight):
+                    weight[j] += max(c.count, 1)
+        return frozenset(j for j, w in enumerate(weight) if total and w * 2 >= total)
+
+    def _shared_services(self, p: Point) -> frozenset[int]:
+        """The services the shared tree proposes at ``p`` (what a user's layer takes as prior)."""
+        return frozenset(node.service for node, _ in self._search(p, None)[0])
 
     def _idle_responds(self, p: Point) -> bool:
         """Whether "nothing to do" answers a context (its category's cluster too, in paper mode)."""
@@ -137,7 +171,7 @@ class TreeSearch:
             self._gindex = GroupIndex(self.home, self._services) if fits else False
         return self._gindex or None
 
-    def _group_hits(self, index: GroupIndex, p: Point, user: str | None) -> list[tuple[Node, Cluster]]:
+    def _group_hits(self, index: GroupIndex, p: Point) -> list[tuple[Node, Cluster]]:
         services, found = index.responding(p.codes)
         chosen: dict[int, Cluster] = {}
         for a, i in zip(services.tolist(), found.tolist(), strict=True):
@@ -146,14 +180,6 @@ class TreeSearch:
             cluster = self._shared_match(self._services[a], p)
             if cluster is not None:
                 chosen[a] = cluster
-        if user is not None:
-            for a in self._layers.layer(user):
-                user_hit = self._layers.match(user, a, p)
-                if user_hit is not None:
-                    if user_hit.polarity > 0:
-                        chosen[a] = user_hit
-                    else:
-                        chosen.pop(a, None)
         return [(self._services[a], c) for a, c in sorted(chosen.items())]
 
     def _ordered(self, hits: list[tuple[Node, Cluster]]) -> list[tuple[Node, Cluster]]:
@@ -193,17 +219,23 @@ class TreeSearch:
     def explain_one(self, x: Mapping[str, object] | Point, user: str | None = None) -> Cognition:
         """Services for a context, ordered by priority, with why (Algorithm 3)."""
         hits, idle = self._search(self.point(x), user)
-        explanations = [
-            Explanation(
-                service=node.name,
-                category=node.parent.name if node.parent else "",
-                priority=round(self._priority(node, cluster), 3),
-                cluster=cluster.id,
-                user=cluster.user,
-                conditions=self.describe(cluster),
+        explanations = []
+        for node, cluster in hits:
+            if cluster.evidence is not None:
+                conditions, evidence = self._layers.explain(cluster.user, node.service, cluster.evidence)
+            else:
+                conditions, evidence = self.describe(cluster), None
+            explanations.append(
+                Explanation(
+                    service=node.name,
+                    category=node.parent.name if node.parent else "",
+                    priority=round(self._priority(node, cluster), 3),
+                    cluster=cluster.id,
+                    user=cluster.user,
+                    conditions=conditions,
+                    evidence=evidence,
+                )
             )
-            for node, cluster in hits
-        ]
         return Cognition(
             services=[e.service for e in explanations],
             unknown=not hits and not idle,

@@ -16,6 +16,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any
 
+from homecog.knowledge.corrections import Example
 from homecog.knowledge.model import Cluster, Condition, Numeric
 
 
@@ -36,12 +37,12 @@ class NodeState:
 @dataclass
 class TreeState:
     """Everything a tree is: its mode, nodes, shared clusters (by node id, in order), every user's
-    layer (per service position, in order), the precedence of services and its counters."""
+    corrections (in order), the precedence of services and its counters."""
 
     mode: str
     nodes: list[NodeState]
     shared: list[tuple[int, Cluster]]
-    users: dict[str, dict[int, list[Cluster]]] = field(default_factory=dict)
+    users: dict[str, list[Example]] = field(default_factory=dict)
     precedence: list[list[int]] = field(default_factory=list)
     next_id: int = 0
     seq: int = 0
@@ -67,7 +68,7 @@ def _conditions(cluster: Cluster) -> tuple[Any, ...]:
 
 def signature(state: TreeState) -> tuple[Any, ...]:
     """Everything a tree answers from — per node its name, counts and clusters (by id), per user
-    and service the clusters in order — for comparing two trees; ids and seq numbers left out."""
+    the corrections in order — for comparing two trees; ids and seq numbers left out."""
     by_node: dict[int, list[Cluster]] = {}
     for node_id, cluster in state.shared:
         by_node.setdefault(node_id, []).append(cluster)
@@ -84,13 +85,7 @@ def signature(state: TreeState) -> tuple[Any, ...]:
         for n in state.nodes
     )
     users = tuple(
-        (
-            user,
-            tuple(
-                (a, tuple((c.polarity, c.seed, _conditions(c)) for c in clusters))
-                for a, clusters in sorted(layer.items())
-            ),
-        )
-        for user, layer in sorted(state.users.items())
+        (user, tuple((e.codes, e.readings, tuple(sorted(e.want))) for e in examples))
+        for user, examples in sorted(state.users.items())
     )
     return shared, users

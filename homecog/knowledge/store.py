@@ -40,10 +40,10 @@ from homecog.knowledge.database import (
     redact,
 )
 from homecog.knowledge.ihdr import IHDRTree
-from homecog.knowledge.model import Cluster
 from homecog.knowledge.rows import (
     cluster_from_row,
     cluster_rows,
+    example_from_payload,
     log_rows,
     node_rows,
     sample_rows,
@@ -214,19 +214,22 @@ class Store:
                 seq=counters.get("seq", 0),
                 n_experiences=counters.get("n_experiences", 0),
             )
-            service_of = {n.id: n.service for n in state.nodes}
             for row in conn.execute(
-                select(ClusterRow).order_by(
-                    ClusterRow.user, ClusterRow.node_id, ClusterRow.seq, ClusterRow.id
-                )
+                select(ClusterRow)
+                .where(ClusterRow.user.is_(None))
+                .order_by(ClusterRow.node_id, ClusterRow.seq, ClusterRow.id)
             ):
-                cluster = cluster_from_row(row)
-                if row.user is None:
-                    state.shared.append((row.node_id, cluster))
-                else:
-                    state.users.setdefault(row.user, {}).setdefault(service_of[row.node_id], []).append(
-                        cluster
-                    )
+                state.shared.append((row.node_id, cluster_from_row(row)))
+            # a user's layer is made from their corrections (user clusters of older databases
+            # are left unread)
+            for row in conn.execute(
+                select(ExperienceRow.user, ExperienceRow.payload)
+                .where(ExperienceRow.kind == "correction")
+                .order_by(ExperienceRow.id)
+            ):
+                state.users.setdefault(row.user or "default", []).append(
+                    example_from_payload(self.home, json.loads(row.payload))
+                )
             try:
                 tree = IHDRTree.from_state(self.home, state)
             except (ValueError, KeyError):
@@ -246,16 +249,12 @@ class Store:
             query = query.with_for_update()
         version = conn.execute(query).scalar_one_or_none() or 0
         if version != self._versions.get(user, 0):
-            layer: dict[int, list[Cluster]] = {}
             rows = conn.execute(
-                select(ClusterRow)
-                .where(ClusterRow.user == user)
-                .order_by(ClusterRow.node_id, ClusterRow.seq, ClusterRow.id)
+                select(ExperienceRow.payload)
+                .where(ExperienceRow.kind == "correction", ExperienceRow.user == user)
+                .order_by(ExperienceRow.id)
             )
-            service_of = {n.id: n.service for n in tree.root.iter_dfs()}
-            for row in rows:
-                layer.setdefault(service_of[row.node_id], []).append(cluster_from_row(row))
-            tree.set_user_layer(user, layer)
+            tree.set_user_examples(user, [example_from_payload(self.home, json.loads(p)) for (p,) in rows])
             self._versions[user] = version
         return version
 
@@ -293,9 +292,7 @@ class Store:
             }
             conn.execute(insert(HomeRow), [home_row])
             conn.execute(insert(NodeRow), node_rows(state))
-            self._write_clusters(conn, tree, None)
-            for user in tree.users:
-                self._write_clusters(conn, tree, user)
+            self._write_clusters(conn, tree)
             if isinstance(samples, SampleLog):
                 rows = log_rows(samples, build_id, tree.mode, seconds, now)
             else:
@@ -306,21 +303,11 @@ class Store:
                 conn.execute(update(UserRow).where(UserRow.name == user).values(version=UserRow.version + 1))
         self._versions = {}
 
-    def _write_clusters(
-        self, conn: Connection, tree: IHDRTree, user: str | None, services: set[int] | None = None
-    ) -> None:
-        """Insert the shared clusters (``user`` None), or a user's clusters of ``services``."""
-        if user is None:
-            pairs = [(node.id, c) for node, c in tree.shared_clusters()]
-        else:
-            pairs = [
-                (tree.service_node(a).id, c)
-                for a, cs in sorted(tree.user_clusters(user).items())
-                if services is None or a in services
-                for c in cs
-            ]
+    def _write_clusters(self, conn: Connection, tree: IHDRTree) -> None:
+        """Insert the shared clusters (a user's layer is their corrections in the log)."""
+        pairs = [(node.id, c) for node, c in tree.shared_clusters()]
         if pairs:
-            conn.execute(insert(ClusterRow), cluster_rows(pairs, user))
+            conn.execute(insert(ClusterRow), cluster_rows(pairs, None))
 
     def _ensure_user(self, conn: Connection, user: str) -> None:
         dialect = conn.dialect.name
@@ -366,15 +353,6 @@ class Store:
                     self._ensure_user(conn, user)
                 version = self._reload_user_if_stale(conn, tree, user, lock=True)
                 added, rejected = tree.correct_one(point, want, user)
-                touched = {tree.home.service_index(s) for s in added + rejected}
-                if touched:
-                    node_ids = [
-                        n.id for n in tree.root.iter_dfs() if n.kind == "service" and n.service in touched
-                    ]
-                    conn.execute(
-                        delete(ClusterRow).where(ClusterRow.user == user, ClusterRow.node_id.in_(node_ids))
-                    )
-                    self._write_clusters(conn, tree, user, touched)
                 payload = {
                     "context": tree.space.context(point),
                     "codes": list(point.codes),
@@ -402,7 +380,7 @@ class Store:
                 )
         except BaseException:
             self._versions.pop(user, None)  # the tree may hold what did not commit: reload next time
-            tree.set_user_layer(user, {})
+            tree.set_user_examples(user, [])
             raise
         self._versions[user] = version + 1
         self._known_users.add(user)

@@ -28,6 +28,7 @@ class ClusterUpdates:
     _index: dict[int, BoxIndex]
     _next_id: int
     _seq: int
+    _shared_version: int
 
     def _all_services(self) -> list[Node]:
         raise NotImplementedError
@@ -49,6 +50,7 @@ class ClusterUpdates:
         stats: dict[int, tuple[float, float, float]] | None,
     ) -> None:
         node = self._all_services()[a]
+        self._shared_version += 1  # what users' layers take as prior may change
         for target in (node, node.parent):
             assert target is not None
             target.count += n

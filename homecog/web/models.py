@@ -139,6 +139,16 @@ class SourceOut(BaseModel):
 
 
 # -- answers -----------------------------------------------------------------------------------
+class EvidenceOut(BaseModel):
+    agreed: int = Field(
+        description="The user's corrections in the answering cell that agree with the answer."
+    )
+    disagreed: int = Field(description="Those that do not.")
+    corrections: list[int] = Field(
+        description="The user's numbers (1: their first) of the latest that agree."
+    )
+
+
 class ExplanationOut(BaseModel):
     service: str
     category: str = Field(description="The service's category (the tree's middle level).")
@@ -146,6 +156,10 @@ class ExplanationOut(BaseModel):
     cluster: int = Field(description="The experience cluster that answered.")
     user: str | None = Field(description="Whose correction made the cluster; null: common knowledge.")
     conditions: dict[str, str] = Field(description="What the cluster matched, per feature or device.")
+    evidence: EvidenceOut | None = Field(
+        None,
+        description="A user's answer: the corrections that answered and how many agreed; null otherwise.",
+    )
 
 
 class CognizeOut(BaseModel):

@@ -1,0 +1,167 @@
+"""Benchmark of learning from people: households with wishes of their own (SPEC §7).
+
+For each home — the built-in ``paper``, the test homes ``studio`` and ``flat``, and a generated
+home of several rooms (benchmarks/homes.py) — households written at random from the home's
+features (homecog/evaluation/households.py), not from its comfort rules:
+
+- ``wishes``: their own rules over the home's values and bins, every switch made;
+- ``wishes, noisy``: the same, but 15 % of their switches not made and a whim now and then;
+- ``thresholds, noisy``: rules with thresholds on readings inside the home's bins, noisy.
+
+Every method learns the home first (the same samples), then lives through a stream of the
+household's events: it predicts each event, then learns it (the trees as a correction of the
+household, the online baselines by ``learn_one``; K-means stays as trained). Printed per
+household: the prequential F1 over the stream (against what the household did), and the F1 on
+held-out contexts after the stream (against what its rules ask for). The oracle answers with
+the household's rules.
+
+    bin/bench corrections            # or: python benchmarks/bench_corrections.py --quick
+"""
+
+from __future__ import annotations
+
+import argparse
+import copy
+import json
+import sys
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+from rich.console import Console
+from rich.table import Table
+
+sys.path.insert(0, str(Path(__file__).parent))
+from homes import home_text
+
+from homecog.evaluation.households import Household, make_household, oracle_predict
+from homecog.evaluation.learn import learn_methods
+from homecog.evaluation.methods import METHODS, TreeMethod
+from homecog.evaluation.metrics import prf
+from homecog.home import load_home
+from homecog.home.model import Home
+from homecog.knowledge.pipeline import ensure_policy
+
+ROOT = Path(__file__).resolve().parent.parent
+USER = "household"
+HOUSEHOLDS = (("wishes", False), ("wishes", True), ("thresholds", True))
+
+
+def homes(rooms: int) -> list[Home]:
+    out = [
+        load_home("paper"),
+        load_home(ROOT / "tests/homes/studio.yaml"),
+        load_home(ROOT / "tests/homes/flat.yaml"),
+    ]
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / f"rooms{rooms}.yaml"
+        path.write_text(home_text(rooms))
+        out.append(load_home(path))
+    return out
+
+
+def learn(method: Any, point: Any, wanted: list[str]) -> None:
+    if isinstance(method, TreeMethod):
+        method.tree.correct_one(point, wanted, user=USER)
+    elif hasattr(method, "learn_one"):
+        method.learn_one(point, wanted)
+
+
+def run_household(
+    learned: dict[str, Any], household: Household, *, noisy: bool, events: int, held_out: int, seed: int
+) -> dict[str, dict[str, float]]:
+    """Prequential F1 over the household's stream and F1 on held-out contexts, per method."""
+    methods = {name: copy.deepcopy(m) for name, m in learned.items()}
+    for m in methods.values():
+        if isinstance(m, TreeMethod):
+            m.user = USER
+    stream = household.stream(events, seed=seed, noisy=noisy)
+    test = household.stream(held_out, seed=seed + 1000, noisy=False)
+    totals = {name: [0, 0, 0] for name in [*methods, "oracle"]}
+    seconds = dict.fromkeys(methods, 0.0)
+    for e in stream:
+        for name, m in methods.items():
+            t0 = time.perf_counter()
+            predicted = set(m.predict_one(e.point))
+            learn(m, e.point, sorted(e.wanted))
+            seconds[name] += time.perf_counter() - t0
+            _tally(totals[name], predicted, e.wanted)
+        _tally(totals["oracle"], set(e.clean), e.wanted)
+    out: dict[str, dict[str, float]] = {}
+    for name in totals:
+        held = [0, 0, 0]
+        for e in test:
+            predicted = set(
+                oracle_predict(household, e.point) if name == "oracle" else methods[name].predict_one(e.point)
+            )
+            _tally(held, predicted, e.clean)
+        out[name] = {
+            "stream_f1": round(prf(*totals[name])[2], 4),
+            "held_out_f1": round(prf(*held)[2], 4),
+            "seconds": round(seconds.get(name, 0.0), 2),
+        }
+    return out
+
+
+def _tally(t: list[int], predicted: set[str], truth: frozenset[str]) -> None:
+    t[0] += len(predicted & truth)
+    t[1] += len(predicted)
+    t[2] += len(truth)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--quick", action="store_true", help="300 events, 300 held-out contexts")
+    parser.add_argument("--events", type=int, default=1000)
+    parser.add_argument("--held-out", type=int, default=500)
+    parser.add_argument("--seeds", type=int, default=1, help="households of each kind per home")
+    parser.add_argument("--rooms", type=int, default=8, help="rooms of the generated home (8: 48 devices)")
+    parser.add_argument("--homes", default="", help="comma-separated home names to run (default all)")
+    parser.add_argument("--json", action="store_true")
+    args = parser.parse_args()
+    if args.quick:
+        args.events, args.held_out, args.seeds = 300, 300, 1
+    names = [m for m in METHODS if m != "paper"]
+    rows = []
+    for home in homes(args.rooms):
+        if args.homes and home.name not in args.homes.split(","):
+            continue
+        policy = ensure_policy(home)
+        learned = learn_methods(home, policy, names, seed=0)
+        for kind, noisy in HOUSEHOLDS:
+            for seed in range(args.seeds):
+                household = make_household(home, kind, seed=seed)
+                figures = run_household(
+                    learned.methods,
+                    household,
+                    noisy=noisy,
+                    events=args.events,
+                    held_out=args.held_out,
+                    seed=seed,
+                )
+                label = f"{home.name}: {kind}{', noisy' if noisy else ''} #{seed}"
+                rows.append({"household": label, "methods": figures})
+                print(label, json.dumps({k: v["stream_f1"] for k, v in figures.items()}), file=sys.stderr)
+    if args.json:
+        print(json.dumps(rows))
+        return
+    columns = [*names, "oracle"]
+    for measure, title in (
+        ("stream_f1", "prequential F1 over the stream"),
+        ("held_out_f1", "F1 on held-out contexts"),
+    ):
+        table = Table(title=f"Corrections: {title} ({args.events} events)")
+        table.add_column("household")
+        for c in columns:
+            table.add_column(c, justify="right")
+        for row in rows:
+            present = row["methods"]
+            table.add_row(
+                row["household"], *[f"{present[c][measure]:.4f}" if c in present else "-" for c in columns]
+            )
+        Console().print(table)
+
+
+if __name__ == "__main__":
+    main()

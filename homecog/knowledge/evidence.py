@@ -1,0 +1,354 @@
+"""What one user's corrections say about one service (SPEC §7): counted evidence and the
+features that matter, learned from the corrections themselves.
+
+Every correction is a labelled example for every service it could concern: the service is
+wanted there or not. A service that would change nothing in a context (switching on a device
+that is on) is not concerned, so it learns nothing there and is never proposed there.
+
+An example is described by *atoms*, one per context feature — the value of a categorical
+feature, the interval of a numeric reading between the home's bin edges and the thresholds
+learned from the user's own readings — and one more: whether the shared tree proposes the
+service there (the prior, so a user who agrees with the shared knowledge keeps it). For every
+key — a set of at most ``order`` atoms — a table counts the wanted and unwanted examples per
+cell. The key that answers is the one whose cells would have predicted the examples best, each
+left out in turn (leave-one-out log loss of the cells' shares; a cell of one example could only
+have said one half): a feature whose change flips the wish lowers that loss, a feature that
+varies while the wish stays the same only splits cells and raises it. The answer at a context
+is the share of wanted examples in its cell under that key, drawn a little toward the share of
+the key with one atom less (and so on down to every example), compared with a threshold — ½, or
+the user's own (:mod:`homecog.knowledge.corrections`). So a wish repeated ten times outweighs
+one odd event; on a tie the latest word wins; where the cell holds no example, a cell with
+fewer atoms and enough examples answers, else the shared tree.
+
+Thresholds: for each numeric feature, the reading that best separates the user's wanted and
+unwanted examples (Gini) is added to the home's bin edges, rounded to the roundest number
+between the two readings it separates (nearest their midpoint), so the user's "fan from 23 °C"
+becomes a cut at 23.
+Thresholds are chosen again each time the evidence has doubled, and the examples they move
+recounted.
+
+>>> learner = ServiceLearner(n_atoms=2, numeric={0: (25.0, 30.0)}, order=1)
+>>> for t, y in [(20.0, False), (22.0, False), (23.5, True), (24.0, True), (26.0, True), (21.0, False)]:
+...     learner.add([t, 0], [None, 0], y, shared=False)
+>>> learner.cuts[0]
+(23.0, 25.0, 30.0)
+>>> learner.decide([23.2, 0], [None, 0], shared=False).sign
+1
+>>> learner.decide([22.8, 0], [None, 0], shared=False).sign
+-1
+"""
+
+from __future__ import annotations
+
+import bisect
+import functools
+import math
+import operator
+from collections.abc import Callable, Iterable, Sequence
+from dataclasses import dataclass
+from itertools import combinations
+
+Atom = object
+#: how many examples' worth a cell's share is drawn toward the share of its key less one atom
+SMOOTHING = 3.0
+#: the fewest examples a cell of a key with fewer atoms must hold to answer for an empty one
+BACKOFF = 5
+Key = tuple[int, ...]
+
+
+@functools.lru_cache(maxsize=1 << 16)
+def _loo(p: int, n: int) -> float:
+    """Leave-one-out log loss (nats) of a cell's estimate over its p wanted and n unwanted
+    examples: each example left out is predicted by the others, with half an example of each
+    label added (a cell of one example then says one half: log 2)."""
+    m = p + n
+    out = 0.0
+    if p:
+        out -= p * math.log((p - 0.5) / m)
+    if n:
+        out -= n * math.log((n - 0.5) / m)
+    return out
+
+
+def _cell_of(key: Key) -> Callable[[tuple[Atom, ...]], tuple[Atom, ...]]:
+    """A function from atoms to a key's cell."""
+    if not key:
+        return lambda atoms: ()
+    if len(key) == 1:
+        k = key[0]
+        return lambda atoms: (atoms[k],)
+    return operator.itemgetter(*key)  # type: ignore[return-value]
+
+
+def _sign(share: float, threshold: float, last: int) -> int:
+    """An answer from a share of wanted examples: above the threshold propose, below it reject,
+    on a tie the latest example (the user's latest word)."""
+    if abs(share - threshold) <= 1e-9:
+        return 1 if last else -1
+    return 1 if share > threshold else -1
+
+
+def round_cut(low: float, high: float) -> float:
+    """A threshold between two readings as a person says it: of the roundest numbers in
+    (low, high] — multiples of 10, 5, 1, 0.5, 0.1, … — the nearest to the midpoint.
+
+    >>> round_cut(22.8, 24.1), round_cut(15.3, 15.8), round_cut(0.1234, 0.1236), round_cut(-3.2, 40)
+    (23.0, 15.5, 0.1235, 0.0)
+    """
+    mid = (low + high) / 2
+    for digits in range(-1, 7):
+        for step in (5.0, 1.0):
+            size = step * 10.0**-digits
+            nearest = round(mid / size) * size
+            for cand in (nearest, nearest - size, nearest + size):
+                if low < cand <= high:
+                    return round(cand, max(digits + 1, 0))
+    return high
+
+
+def best_cut(readings: Sequence[float], labels: Sequence[bool]) -> float | None:
+    """The threshold that best splits the readings by label (least Gini impurity), or None."""
+    pairs = sorted(zip(readings, labels, strict=True))
+    n = len(pairs)
+    total_pos = sum(1 for _, y in pairs if y)
+    if n < 4 or total_pos in (0, n):
+        return None
+    best, best_i = math.inf, -1
+    pos = 0
+    for i in range(n - 1):
+        pos += pairs[i][1]
+        if pairs[i][0] == pairs[i + 1][0]:
+            continue
+        left, right = i + 1, n - i - 1
+        rpos = total_pos - pos
+        gini = pos * (left - pos) / left + rpos * (right - rpos) / right
+        if gini < best - 1e-12:
+            best, best_i = gini, i
+    if best_i < 0:
+        return None
+    return round_cut(pairs[best_i][0], pairs[best_i + 1][0])
+
+
+@dataclass
+class Decision:
+    """A learner's answer at a context: +1 propose, −1 reject, 0 (no evidence) leave it to the
+    shared tree; the key that answered, its cell, and the wanted and unwanted examples in it."""
+
+    sign: int
+    key: Key
+    cell: tuple[Atom, ...]
+    wanted: int
+    unwanted: int
+    threshold: float = 0.5
+    share: float = 0.5  # the estimated share of wanted examples, drawn toward the sub-keys'
+
+
+class ServiceLearner:
+    """One user's evidence about one service.
+
+    Parameters
+    ----------
+    n_atoms
+        Context features, plus one for the shared tree's answer (the last atom).
+    numeric
+        Per numeric feature position, the home's bin edges (finite ones, sorted).
+    order
+        The most atoms a key may have.
+    prior
+        The atoms that the shared knowledge says matter to the service: between keys that
+        answer the evidence equally well, the one with more of them and fewer others wins
+        (what a single correction generalizes over).
+    """
+
+    def __init__(
+        self,
+        n_atoms: int,
+        numeric: dict[int, tuple[float, ...]],
+        order: int = 2,
+        prior: frozenset[int] = frozenset(),
+    ) -> None:
+        self.n_atoms = n_atoms
+        self.numeric = numeric
+        self.order = order
+        self.prior = prior
+        # keys of up to two atoms; of three or more only with the shared answer among them (the
+        # shared knowledge refined by two features)
+        self.keys: list[Key] = [
+            k for r in range(order + 1) for k in combinations(range(n_atoms), r) if r <= 2 or n_atoms - 1 in k
+        ]
+        self.cuts: dict[int, tuple[float, ...]] = dict(numeric)
+        # per example: readings, codes, wanted, the shared answer, the caller's id for it
+        self._examples: list[tuple[Sequence[float | None], Sequence[int], bool, bool, int]] = []
+        self._atoms: list[tuple[Atom, ...]] = []
+        # per key (by position in self.keys): its cells' counts [wanted, unwanted, latest] and
+        # its leave-one-out loss
+        self._tables: list[dict[tuple[Atom, ...], list[int]]] = [{} for _ in self.keys]
+        self._loo = [0.0] * len(self.keys)
+        self._cell = [_cell_of(k) for k in self.keys]
+        self._index = {k: i for i, k in enumerate(self.keys)}
+        # per key, its keys with one atom less
+        self._subs = [[self._index[k[:m] + k[m + 1 :]] for m in range(len(k))] for k in self.keys]
+        self._prior_rank = [(-len(prior.intersection(k)), len(set(k) - prior)) for k in self.keys]
+        self._best: int | None = None
+        self._backoff: list[Key] | None = None
+        self._next_cut = 4
+
+    @property
+    def n_examples(self) -> int:
+        return len(self._examples)
+
+    def atoms(self, readings: Sequence[float | None], codes: Sequence[int], shared: bool) -> tuple[Atom, ...]:
+        """An example's atoms: codes, numeric readings as intervals between cuts, the prior."""
+        out: list[Atom] = []
+        for j in range(self.n_atoms - 1):
+            cuts = self.cuts.get(j)
+            if cuts is None:
+                out.append(codes[j])
+            else:
+                r = readings[j]
+                if r is None:
+                    out.append(("bin", codes[j]))
+                else:  # the interval, by its lower end: a new cut moves only what it splits off
+                    i = bisect.bisect_right(cuts, r)
+                    out.append(cuts[i - 1] if i else -math.inf)
+        out.append(int(shared))
+        return tuple(out)
+
+    def add(
+        self,
+        readings: Sequence[float | None],
+        codes: Sequence[int],
+        wanted: bool,
+        *,
+        shared: bool,
+        ident: int = 0,
+    ) -> None:
+        """Count one example: the service ``wanted`` or not in a context (``ident``: the
+        caller's name for it, given back by :meth:`members`)."""
+        self._examples.append((readings, codes, wanted, shared, ident))
+        atoms = self.atoms(readings, codes, shared)
+        self._atoms.append(atoms)
+        self._count(atoms, wanted, range(len(self.keys)))
+        self._best = self._backoff = None
+        n = len(self._examples)
+        if n >= self._next_cut:
+            self._next_cut = max(n + 8, 2 * n)
+            self._recut()
+
+    def _count(self, atoms: tuple[Atom, ...], wanted: bool, keys: Iterable[int], step: int = 1) -> None:
+        """Count an example in the cells of ``keys`` (``step`` −1: take it out again; a cell's
+        latest example is then left as it was)."""
+        tables, loo, cell_of = self._tables, self._loo, self._cell
+        for i in keys:
+            cell = cell_of[i](atoms)
+            table = tables[i]
+            counts = table.get(cell)
+            if counts is None:
+                counts = table[cell] = [0, 0, 0]
+                before = 0.0
+            else:
+                before = _loo(counts[0], counts[1])
+            counts[0 if wanted else 1] += step
+            if step > 0:
+                counts[2] = wanted
+            elif not counts[0] and not counts[1]:
+                del table[cell]
+            loo[i] += _loo(counts[0], counts[1]) - before
+
+    def _recut(self) -> None:
+        """Choose the thresholds again; the examples whose interval moved change cells."""
+        moved = []
+        for j, edges in self.numeric.items():
+            pairs = [(ex[0][j], ex[2]) for ex in self._examples if ex[0][j] is not None]
+            cut = best_cut([r for r, _ in pairs], [y for _, y in pairs])  # type: ignore[misc]
+            cuts = tuple(sorted((*edges, cut))) if cut is not None and cut not in edges else edges
+            if cuts != self.cuts[j]:
+                self.cuts[j] = cuts
+                moved.append(j)
+        if not moved:
+            return
+        keys = [i for i, k in enumerate(self.keys) if any(j in k for j in moved)]
+        for e, (readings, codes, wanted, shared, _) in enumerate(self._examples):
+            atoms = self.atoms(readings, codes, shared)
+            if atoms != self._atoms[e]:
+                self._count(self._atoms[e], wanted, keys, -1)
+                self._count(atoms, wanted, keys)
+                self._atoms[e] = atoms
+
+    def best_key(self) -> Key:
+        """The key with the least leave-one-out loss (ties: more atoms of the prior, fewer
+        others, then the first)."""
+        if self._best is None:
+            self._best = min(range(len(self.keys)), key=self._rank)
+        return self.keys[self._best]
+
+    def _rank(self, i: int) -> tuple[float, tuple[int, int]]:
+        return (round(self._loo[i], 6), self._prior_rank[i])
+
+    def decide(
+        self, readings: Sequence[float | None], codes: Sequence[int], *, shared: bool, threshold: float = 0.5
+    ) -> Decision:
+        """The answer at a context: the share of wanted examples in its cell under the best key,
+        drawn toward the share under the key with one atom less (SMOOTHING examples' worth), and
+        so on down to the empty key; proposed above ``threshold``, rejected below it, on a tie
+        the latest example of the cell decides. Where the cell under the best key holds no
+        example, the next key of the chain whose cell holds at least BACKOFF examples answers;
+        where none does, the evidence says nothing (0) and the shared tree answers."""
+        atoms = self.atoms(readings, codes, shared)
+        chain = self.backoff()
+        for depth, key in enumerate(chain):
+            cell = tuple(atoms[k] for k in key)
+            counts = self._tables[self._index[key]].get(cell)
+            if counts is not None and (depth == 0 or counts[0] + counts[1] >= BACKOFF):
+                break
+        else:
+            return Decision(0, chain[0], (), 0, 0, threshold)
+        share = 0.5
+        for sub in reversed(chain[depth:]):  # every cell on the way holds this cell's examples
+            c = self._tables[self._index[sub]][tuple(atoms[k] for k in sub)]
+            share = (c[0] + SMOOTHING * share) / (c[0] + c[1] + SMOOTHING)
+        p, n, last = counts
+        return Decision(_sign(share, threshold, last), key, cell, p, n, threshold, share)
+
+    def backoff(self) -> list[Key]:
+        """The best key, then the best of its keys with one atom less, and so on to the empty key."""
+        if self._backoff is None:
+            i = self._index[self.best_key()]
+            chain = [self.keys[i]]
+            while self._subs[i]:
+                i = min(self._subs[i], key=self._rank)
+                chain.append(self.keys[i])
+            self._backoff = chain
+        return self._backoff
+
+    def members(self, decision: Decision) -> list[tuple[int, bool]]:
+        """The examples in a decision's cell: their ids and labels."""
+        return [
+            (self._examples[i][4], self._examples[i][2])
+            for i, atoms in enumerate(self._atoms)
+            if tuple(atoms[k] for k in decision.key) == decision.cell
+        ]
+
+    def interval(self, decision: Decision, j: int) -> tuple[float, float]:
+        """The interval of numeric feature ``j`` in a decision's cell, widened over neighbouring
+        cells (the same other atoms) that decide the same way: the learned interval."""
+        pos = decision.key.index(j)
+        atom = decision.cell[pos]
+        cuts = self.cuts[j]
+        if not isinstance(atom, float) or (atom not in cuts and atom != -math.inf):
+            return (-math.inf, math.inf)
+        k = 0 if atom == -math.inf else cuts.index(atom) + 1  # the interval's position
+        table = self._tables[self._index[decision.key]]
+
+        def same(i: int) -> bool:
+            lower = cuts[i - 1] if i else -math.inf
+            cell = (*decision.cell[:pos], lower, *decision.cell[pos + 1 :])
+            p, n, last = table.get(cell, (0, 0, 0))
+            return p + n > 0 and _sign(p / (p + n), decision.threshold, last) == decision.sign
+
+        low, high = k, k
+        while low > 0 and same(low - 1):
+            low -= 1
+        while high < len(cuts) and same(high + 1):
+            high += 1
+        return (cuts[low - 1] if low > 0 else -math.inf, cuts[high] if high < len(cuts) else math.inf)
