@@ -57,6 +57,7 @@ Key = tuple[int, ...]
 
 
 @functools.lru_cache(maxsize=1 << 16)
+@functools.lru_cache(maxsize=65536)
 def _loo(p: int, n: int) -> float:
     """Leave-one-out log loss (nats) of a cell's estimate over its p wanted and n unwanted
     examples: each example left out is predicted by the others, with half an example of each
