@@ -112,15 +112,16 @@ def _copy(new: dict[str, sa.Table], home: str) -> None:
 
 def upgrade() -> None:
     bind = op.get_bind()
-    row = bind.execute(
-        sa.text("SELECT name, content_hash, mode, built_at, state FROM homes ORDER BY id")
-    ).first()
+    row = bind.execute(sa.text("SELECT name FROM homes ORDER BY id")).first()
     new = _create()
     if row is not None:  # a database without a home row has no rows of a home either
-        bind.execute(
-            sa.insert(new["homes"]),
-            [{**row._asdict(), "version": 1, "build": 0 if row.built_at is None else 1}],
-        )
+        homes = sa.Table("homes", sa.MetaData(), autoload_with=bind)
+        kept = ["name", "content_hash", "mode", "built_at", "state"]
+        one = sa.literal(1, sa.BigInteger)
+        rows = sa.select(*[homes.c[k] for k in kept], one, one).where(homes.c.name == row.name)
+        bind.execute(sa.insert(new["homes"]).from_select([*kept, "version", "build"], rows))
+        unbuilt = new["homes"].c.built_at.is_(None)
+        bind.execute(sa.update(new["homes"]).where(unbuilt).values(build=0))
         _copy(new, row.name)
     for table in ("clusters", "nodes", "users", "experiences", "homes"):
         op.drop_table(table)
