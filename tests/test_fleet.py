@@ -5,6 +5,7 @@ migration of one-home databases (schema 0002) to the keyed form, on every databa
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import signal
@@ -16,6 +17,7 @@ from pathlib import Path
 import pytest
 from fleet_homes import home_rows, write_homes
 from sqlalchemy import insert, select
+from sqlalchemy.exc import OperationalError
 
 from homecog.cli.main import main
 from homecog.home import Home, load_home_text
@@ -168,6 +170,7 @@ def _assert_complete_or_absent(url: str, homes: list[Home]) -> list[str]:
 
 
 @pytest.mark.slow
+@pytest.mark.xdist_group("ray")
 @pytest.mark.parametrize("how", ["serial", "ray"])
 def test_a_training_killed_with_sigkill_leaves_every_home_complete_or_absent(tmp_path, how):
     if how == "ray":
@@ -187,8 +190,9 @@ def test_a_training_killed_with_sigkill_leaves_every_home_complete_or_absent(tmp
     deadline = time.monotonic() + 240
     try:
         while time.monotonic() < deadline and proc.poll() is None:
-            if (tmp_path / "fleet.sqlite").exists() and len(home_rows(url)) >= 2:
-                break
+            with contextlib.suppress(OperationalError):  # not yet made
+                if len(home_rows(url)) >= 2:
+                    break
             time.sleep(0.05)
     finally:
         os.killpg(proc.pid, signal.SIGKILL)
@@ -204,7 +208,8 @@ def test_a_training_killed_with_sigkill_leaves_every_home_complete_or_absent(tmp
     )
     assert done.returncode == 0, done.stderr[-2000:]
     statuses = {h["home"]: h["status"] for h in json.loads(done.stdout)["homes"]}
-    assert {n for n, s in statuses.items() if s == "skipped"} == set(first)
+    # (a Ray worker in the middle of a task may still commit its home after the kill: whole too)
+    assert set(first) <= {n for n, s in statuses.items() if s == "skipped"}
     assert _assert_complete_or_absent(url, homes) == sorted(h.name for h in homes)
 
 
