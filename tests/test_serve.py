@@ -18,7 +18,7 @@ from pathlib import Path
 
 import pytest
 from fastapi.testclient import TestClient
-from fleet_homes import write_homes
+from fleet_homes import home_text, write_homes
 from servers import fresh_database
 from webserver import copy_database, free_port, get, send
 
@@ -117,6 +117,22 @@ def test_a_correction_goes_to_the_database_and_is_seen_at_once(fleet_url, fleet_
     store = Store(fleet_url, home)  # in the database, for everyone who reads it
     assert store.load_tree().predict_one(ctx, "kim") == want and store.home_version() == (2, 1)
     store.close()
+
+
+def test_a_home_built_again_is_served_anew(fleet_url, fleet_db, tmp_path):
+    """Another build of a cached home (here from a changed home file) moves its build: the
+    server reads the home, its models and its tree again."""
+    home = fleet_db[1][0]
+    client = TestClient(FleetApp(Fleet(fleet_url)))
+    base = f"/api/homes/{home.name}"
+    asked = {"context": context_of(home), "user": "kim"}
+    assert "SendDrinks" in client.post(f"{base}/cognize", json=asked).json()["services"]
+    changed = tmp_path / f"{home.name}.yaml"
+    changed.write_text(home_text(1, name=home.name).replace("SendDrinks", "BringWater"))
+    assert learn_home(str(changed), fleet_url).status == "learned"
+    services = client.post(f"{base}/cognize", json=asked).json()["services"]
+    assert "BringWater" in services and "SendDrinks" not in services
+    assert "BringWater" in [s["name"] for s in client.get(f"{base}/home").json()["services"]]
 
 
 def test_the_cache_is_bounded_and_answers_alike(fleet_url, fleet_db):

@@ -7,10 +7,11 @@ one-home API of ``homecog up`` — ``home``, ``cognize``, ``corrections``, ``pla
 
 The server keeps nothing the database lacks. A home's tree is loaded on first use into a
 bounded LRU cache (with its home, read from the home file stored with the build); every
-request reads the home's version (one primary-key lookup) and, when another server has
-written since (a correction, a build), brings the tree up to the database before it
-answers: so several servers behind any load balancer answer alike, and a correction through
-one is seen by the next cognition through any other. A correction goes to the database in
+request reads the home's version (a primary-key lookup, batched with the other requests
+waiting at that moment: :class:`Versions`) and, when another server has written since (a
+correction, a build), brings the tree up to the database before it answers: so several
+servers behind any load balancer answer alike, and a correction through one is seen by the
+next cognition through any other. A correction goes to the database in
 its transaction (the store's), then the cache follows it.
 """
 
@@ -130,18 +131,19 @@ class Fleet:
         app = create_app(runtime, self.settings, fleet=True)
         return Entry(name=name, store=store, runtime=runtime, app=app, version=version)
 
-    def version(self, name: str) -> tuple[int, int] | None:
-        """The home's ``(version, build)`` in the database now: one primary-key lookup."""
-        query = select(HomeRow.version, HomeRow.build).where(HomeRow.name == name)
+    def versions(self, names: list[str]) -> dict[str, tuple[int, int]]:
+        """The homes' ``(version, build)`` in the database now (a home it lacks is left out): one
+        query on the primary key, on a connection kept for it."""
+        query = select(HomeRow.name, HomeRow.version, HomeRow.build).where(HomeRow.name.in_(names))
         if self.engine.dialect.name == "sqlite":
             with self.engine.connect() as conn:
-                row = conn.execute(query).first()
+                rows = conn.execute(query).all()
         else:
             for attempt in (0, 1):  # a connection the server dropped: once more on a new one
                 try:
                     if self._conn is None:
                         self._conn = self.engine.connect().execution_options(isolation_level="AUTOCOMMIT")
-                    row = self._conn.execute(query).first()
+                    rows = self._conn.execute(query).all()
                     break
                 except (SQLAlchemyError, DBAPIError) as e:
                     if self._conn is not None:
@@ -149,7 +151,7 @@ class Fleet:
                         self._conn = None
                     if attempt:
                         raise StoreError(db_message(self.url, e)) from None
-        return None if row is None else (row.version, row.build)
+        return {name: (version, build) for name, version, build in rows}
 
     def refresh(self, entry: Entry, version: tuple[int, int]) -> None:
         """Bring a cached home up to the database (the users' layers another server corrected,
@@ -163,12 +165,52 @@ class Fleet:
         self._entries.pop(name, None)
 
 
+class Versions:
+    """The homes' versions for the requests, read in batches: every request waits for a read
+    that started after it arrived (so it sees every write committed before it), and the
+    requests that arrive while one read is under way share the next. Under load that is one
+    round trip to the database for many requests, not one each."""
+
+    def __init__(self, fleet: Fleet) -> None:
+        self.fleet = fleet
+        self._pending: dict[str, list[asyncio.Future[tuple[int, int] | None]]] = {}
+        self._reading = False
+
+    async def of(self, name: str) -> tuple[int, int] | None:
+        future: asyncio.Future[tuple[int, int] | None] = asyncio.get_running_loop().create_future()
+        self._pending.setdefault(name, []).append(future)
+        if not self._reading:
+            self._reading = True
+            asyncio.get_running_loop().create_task(self._read())
+        return await future
+
+    async def _read(self) -> None:
+        try:
+            while self._pending:
+                batch, self._pending = self._pending, {}
+                try:
+                    found = await asyncio.to_thread(self.fleet.versions, list(batch))
+                except Exception as e:  # StoreError, or anything: every waiting request gets it
+                    for futures in batch.values():
+                        for f in futures:
+                            if not f.done():
+                                f.set_exception(e)
+                    continue
+                for name, futures in batch.items():
+                    for f in futures:
+                        if not f.done():
+                            f.set_result(found.get(name))
+        finally:
+            self._reading = False
+
+
 class FleetApp:
     """The ASGI application of :class:`Fleet`: the list of homes, and each home's own app under
     its prefix."""
 
     def __init__(self, fleet: Fleet) -> None:
         self.fleet = fleet
+        self.versions = Versions(fleet)
         token = fleet.settings.token
         self.token = None if token is None else token.encode()
 
@@ -216,10 +258,12 @@ class FleetApp:
         else:
             with contextlib.suppress(KeyError):  # evicted by a load in another thread meanwhile
                 fleet._entries.move_to_end(name)
-        version = fleet.version(name)  # on the loop: one indexed lookup, cheaper than a thread hop
-        if version is None:
+        version = await self.versions.of(name)
+        if version is None or entry.version is None or version[1] != entry.version[1]:
+            # gone (the load raises, naming the homes there are), or built again, perhaps from
+            # another home file: the home, its models and its tree are read anew
             fleet.forget(name)
-            entry = await asyncio.to_thread(fleet.entry, name)  # raises, naming the homes there are
+            entry = await asyncio.to_thread(fleet.entry, name)
         elif version != entry.version:
             await asyncio.to_thread(fleet.refresh, entry, version)
         return entry

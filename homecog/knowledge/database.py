@@ -97,4 +97,16 @@ def db_message(url: str, e: BaseException) -> str:
     return f"--db {redact(url)}: cannot use the database: {text_}"
 
 
+def migrate(engine: Engine) -> None:
+    """Make or migrate the schema of a database to the latest (Alembic's ``upgrade head``)."""
+    from alembic import command
+    from alembic.config import Config
+
+    cfg = Config()
+    cfg.set_main_option("script_location", str(Path(__file__).parent / "migrations"))
+    with engine.begin() as conn:
+        cfg.attributes["connection"] = conn
+        command.upgrade(cfg, "head")
+
+
 # -- encoding the tree -------------------------------------------------------------------------

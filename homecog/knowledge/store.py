@@ -27,7 +27,6 @@ import time
 from collections.abc import Iterator
 from contextlib import contextmanager
 from datetime import UTC, datetime
-from pathlib import Path
 from typing import Any
 
 from sqlalchemy import delete, func, insert, select, update
@@ -42,6 +41,7 @@ from homecog.knowledge.database import (
     default_url,
     is_conflict,
     make_engine,
+    migrate,
     redact,
 )
 from homecog.knowledge.ihdr import IHDRTree
@@ -59,7 +59,7 @@ from homecog.knowledge.schema import ClusterRow, ExperienceRow, HomeRow, NodeRow
 from homecog.knowledge.state import NodeState, TreeState
 from homecog.knowledge.store_log import StoreLog
 
-__all__ = ["Store", "StoreError", "default_url", "redact"]
+__all__ = ["Store", "StoreError", "default_url", "migrate", "redact"]
 SAMPLES_PER_ROW = 32768
 CONFLICT_RETRIES = 50  # attempts of a correction that the server aborts for a deadlock
 
@@ -136,15 +136,6 @@ class Store(StoreLog):
             row = conn.execute(select(HomeRow.mode).where(HomeRow.name == self.home.name)).first()
             return None if row is None else row[0]
 
-    def home_version(self) -> tuple[int, int] | None:
-        """``(version, build)`` of the home: the version moves on every write, the build on every
-        build; ``None`` when the database has no such home. One primary-key lookup."""
-        with self._tx() as conn:
-            row = conn.execute(
-                select(HomeRow.version, HomeRow.build).where(HomeRow.name == self.home.name)
-            ).first()
-            return None if row is None else (row.version, row.build)
-
     def load_tree(self) -> IHDRTree:
         """The tree as stored: shared nodes and clusters, and every user's layer."""
         h = self.home.name
@@ -192,21 +183,6 @@ class Store(StoreLog):
         """Reload a user's layer when another process has corrected since it was read."""
         with self._tx() as conn:
             self._reload_user_if_stale(conn, tree, user, lock=False)
-
-    def refresh(self, tree: IHDRTree) -> IHDRTree:
-        """``tree`` brought up to the database: the users' layers that other processes corrected
-        since they were read, or the whole tree loaded again after another build."""
-        with self._tx() as conn:
-            build = conn.execute(select(HomeRow.build).where(HomeRow.name == self.home.name)).scalar()
-            if build != self._build:
-                return self.load_tree()
-            rows = conn.execute(
-                select(UserRow.name, UserRow.version).where(UserRow.home == self.home.name)
-            ).all()
-            for name, version in rows:
-                if version != self._versions.get(name, 0):
-                    self._reload_user_if_stale(conn, tree, name, lock=False)
-        return tree
 
     def _reload_user_if_stale(self, conn: Connection, tree: IHDRTree, user: str, *, lock: bool) -> int:
         query = select(UserRow.version).where(UserRow.home == self.home.name, UserRow.name == user)
@@ -411,15 +387,3 @@ class Store(StoreLog):
 def _keyed(rows: list[dict[str, Any]], home: str) -> list[dict[str, Any]]:
     """Rows under their home's name."""
     return [{**row, "home": home} for row in rows]
-
-
-def migrate(engine: Engine) -> None:
-    """Make or migrate the schema of a database to the latest (Alembic's ``upgrade head``)."""
-    from alembic import command
-    from alembic.config import Config
-
-    cfg = Config()
-    cfg.set_main_option("script_location", str(Path(__file__).parent / "migrations"))
-    with engine.begin() as conn:
-        cfg.attributes["connection"] = conn
-        command.upgrade(cfg, "head")

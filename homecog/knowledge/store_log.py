@@ -1,5 +1,6 @@
 """Reading a home's experience log (SPEC §6): the counts of its rows, the corrections to replay
-on a new build, and the tree rebuilt from the log alone, which must answer as the stored one.
+on a new build, and the tree rebuilt from the log alone, which must answer as the stored one;
+and whether a tree in memory is stale (the home's version) and bringing it up to date.
 
 A part of :class:`~homecog.knowledge.store.Store`; every query is under the store's home.
 """
@@ -31,9 +32,35 @@ class StoreLog:
     home: Home
     url: str
     engine: Engine
+    _build: int
+    _versions: dict[str, int]
 
     def _tx(self) -> AbstractContextManager[Connection]:  # the store's
         raise NotImplementedError
+
+    def home_version(self) -> tuple[int, int] | None:
+        """``(version, build)`` of the home: the version moves on every write, the build on every
+        build; ``None`` when the database has no such home. One primary-key lookup."""
+        with self._tx() as conn:
+            row = conn.execute(
+                select(HomeRow.version, HomeRow.build).where(HomeRow.name == self.home.name)
+            ).first()
+            return None if row is None else (row.version, row.build)
+
+    def refresh(self, tree: IHDRTree) -> IHDRTree:
+        """``tree`` brought up to the database: the users' layers that other processes corrected
+        since they were read, or the whole tree loaded again after another build."""
+        with self._tx() as conn:
+            build = conn.execute(select(HomeRow.build).where(HomeRow.name == self.home.name)).scalar()
+            if build == self._build:
+                rows = conn.execute(
+                    select(UserRow.name, UserRow.version).where(UserRow.home == self.home.name)
+                ).all()
+                for name, version in rows:
+                    if version != self._versions.get(name, 0):
+                        self._reload_user_if_stale(conn, tree, name, lock=False)  # type: ignore[attr-defined]
+                return tree
+        return self.load_tree()  # type: ignore[attr-defined]
 
     def counts(self) -> dict[str, int]:
         """Rows of the home per table: nodes, clusters (shared and per user), experiences, users."""
