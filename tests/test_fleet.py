@@ -276,3 +276,24 @@ def test_a_one_home_database_of_schema_0002_moves_to_the_keyed_form(
         assert store.load_tree().predict_one(context, "alice") == tree.predict_one(context, "alice")
     finally:
         store.close()
+
+
+def test_a_database_of_an_unknown_newer_schema_is_one_line(tmp_path, capsys):
+    write_homes(tmp_path / "homes", 1)
+    url = f"sqlite:///{tmp_path / 'new.sqlite'}"
+    engine = make_engine(url)
+    with engine.begin() as conn:
+        conn.exec_driver_sql("CREATE TABLE alembic_version (version_num VARCHAR(32) PRIMARY KEY)")
+        conn.exec_driver_sql("INSERT INTO alembic_version VALUES ('9999')")
+    engine.dispose()
+    for args in (["fleet", "train", tmp_path / "homes", "--serial"], ["serve"]):
+        code, out, err = run(capsys, *args, "--db", url)
+        assert code == 2 and out == "" and err.count("\n") == 1, err
+        assert "a schema this homecog does not know" in err and "9999" in err, err
+
+
+def test_without_ray_the_command_says_how_to_have_it(tmp_path, capsys, monkeypatch):
+    write_homes(tmp_path / "homes", 1)
+    monkeypatch.setitem(sys.modules, "ray", None)  # import ray fails as where it is not installed
+    code, _, err = run(capsys, "fleet", "train", tmp_path / "homes", "--db", "sqlite://")
+    assert code == 2 and "pip install 'homecog[fleet]'" in err and err.count("\n") == 1, err
