@@ -13,6 +13,7 @@ another in this process, for comparison and where Ray cannot be had.
 
 from __future__ import annotations
 
+import os
 import tempfile
 import time
 from collections.abc import Callable, Iterator
@@ -82,6 +83,8 @@ def learn_home(path: str, url: str, seed: int = 0) -> HomeResult:
         result.greedy_optimal_rate = trained.greedy_optimal_rate
     except (HomecogError, OSError, UnicodeDecodeError) as e:
         result.status, result.error = "failed", str(e) if isinstance(e, HomecogError) else f"{path}: {e}"
+    except Exception as e:  # one home's surprise must not stop the fleet: reported, with its kind
+        result.status, result.error = "failed", f"{Path(path).name}: {type(e).__name__}: {e}"
     result.seconds = time.perf_counter() - start
     return result
 
@@ -135,6 +138,7 @@ def run_ray(
 ) -> Iterator[HomeResult]:
     """The homes as Ray tasks, one CPU each, results as they finish; a local Ray of ``workers``
     CPUs unless ``address`` names a cluster."""
+    os.environ.setdefault("RAY_USAGE_STATS_ENABLED", "0")  # no reports home from a robot maker's cluster
     ray = import_ray()
     started = False
     if not ray.is_initialized():
