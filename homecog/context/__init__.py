@@ -10,6 +10,7 @@ scenario file (``{"time": "07:00", "temperature": "25", "location": "bed", "wind
 from __future__ import annotations
 
 import threading
+import time
 from typing import Any, Protocol, Self
 
 
@@ -30,6 +31,9 @@ class ConnectedSource:
     ``_connected`` when it is up), started and stopped as a context manager."""
 
     _connected: threading.Event
+    _changed: threading.Condition  # notified whenever a value arrives
+    _values: dict[str, str]
+    _names: list[str]  # the names whose values come over the network
 
     def start(self) -> Self:
         raise NotImplementedError
@@ -47,6 +51,20 @@ class ConnectedSource:
     def connected(self) -> bool:
         """Whether the connection is up now."""
         return self._connected.is_set()
+
+    def snapshot(self) -> dict[str, str]:  # pragma: no cover - each source says its own
+        raise NotImplementedError
+
+    def wait_ready(self, timeout: float) -> dict[str, str]:
+        """The snapshot once every value has arrived; :class:`ContextError` after ``timeout`` s."""
+        deadline = time.monotonic() + timeout
+        with self._changed:
+            while any(n not in self._values for n in self._names):
+                left = deadline - time.monotonic()
+                if left <= 0:
+                    break
+                self._changed.wait(left)
+        return self.snapshot()
 
     def status(self) -> dict[str, Any]:  # pragma: no cover - each source says its own
         raise NotImplementedError

@@ -219,17 +219,6 @@ class HomeAssistantSource(ConnectedSource):
         values.update(dict.fromkeys(self._clocks, clock))
         return {n: values[n] for n in self.home.feature_names + self.home.device_names}
 
-    def wait_ready(self, timeout: float) -> dict[str, str]:
-        """The snapshot once every value has arrived; :class:`ContextError` after ``timeout`` s."""
-        deadline = time.monotonic() + timeout
-        with self._changed:
-            while any(n not in self._values for n in self._names):
-                left = deadline - time.monotonic()
-                if left <= 0:
-                    break
-                self._changed.wait(left)
-        return self.snapshot()
-
     def switch(self, device: str, on: bool) -> concurrent.futures.Future[bool] | None:
         """The robot's IoT command as a service call (``light.turn_on`` on the device's entity),
         sent without waiting; the future says whether Home Assistant carried it out. While the

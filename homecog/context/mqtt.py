@@ -251,17 +251,6 @@ class MqttSource(ConnectedSource):
                 )
             return {n: self._values[n] for n in self._names}
 
-    def wait_ready(self, timeout: float) -> dict[str, str]:
-        """The snapshot, once every value has arrived; :class:`ContextError` after ``timeout`` s."""
-        deadline = time.monotonic() + timeout
-        with self._changed:
-            while any(n not in self._values for n in self._names):
-                left = deadline - time.monotonic()
-                if left <= 0:
-                    break
-                self._changed.wait(left)
-        return self.snapshot()
-
     def switch(self, device: str, on: bool) -> None:
         """The robot's IoT command: publish ``on``/``off`` to the device's command topic (QoS 1)."""
         if device not in self.home.device_names:
