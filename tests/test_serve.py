@@ -231,3 +231,40 @@ def test_schemathesis_finds_nothing(fleet_url, tmp_path):
     names = sorted(c.get("name", "") for c in suite.iter("testcase"))
     assert len(names) == 5, names  # home, cognize, corrections, plan, history
     assert "No issues found" in run.stdout
+
+
+def test_versions_are_read_in_batches_each_after_its_request_came():
+    """The requests waiting while a read is under way share the next read, never the one that
+    started before they came (it may miss a write they must see)."""
+    import asyncio
+    import threading
+
+    from homecog.fleet.serve import Versions
+
+    class Db:
+        def __init__(self) -> None:
+            self.reads: list[list[str]] = []
+            self.version = 1
+            self.gate = threading.Event()
+
+        def versions(self, names: list[str]) -> dict[str, tuple[int, int]]:
+            self.reads.append(sorted(names))
+            seen = self.version  # what the database holds when the read starts
+            self.gate.wait(5)
+            return {n: (seen, 1) for n in names if n != "gone"}
+
+    db = Db()
+    versions = Versions(db)  # type: ignore[arg-type]
+
+    async def scenario() -> list[tuple[int, int] | None]:
+        first = [asyncio.create_task(versions.of(n)) for n in ("a", "b", "a", "gone")]
+        await asyncio.sleep(0.05)  # the first read is under way, held at the gate
+        db.version = 2  # a write commits; then a request comes
+        late = asyncio.create_task(versions.of("a"))
+        await asyncio.sleep(0.05)
+        db.gate.set()
+        return [*(await asyncio.gather(*first)), await late]
+
+    answers = asyncio.run(scenario())
+    assert answers == [(1, 1), (1, 1), (1, 1), None, (2, 1)]
+    assert db.reads == [["a", "b", "gone"], ["a"]]
