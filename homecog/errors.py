@@ -78,3 +78,12 @@ class CommandError(HomecogError):
     """A command that could not carry an action out in the world: a switch whose broker is
     gone, a door that is closed, an object that is not where the robot believed it. Acting
     observes the world again and plans anew when one fails."""
+
+
+class FleetError(HomecogError):
+    """A fleet that cannot be learned or served: a folder without home files, Ray that cannot be
+    had or reached, a database that holds no home."""
+
+
+class UnknownHomeError(HomecogError):
+    """A home the fleet's database does not hold (the message names those it does)."""

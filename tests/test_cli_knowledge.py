@@ -171,16 +171,16 @@ def test_wrong_and_unreachable_database_urls(capsys, tmp_path):
         assert "Traceback" not in err
 
 
-def test_database_made_for_another_home(built, capsys):
+def test_database_made_for_another_home(built, capsys, tmp_path):
+    """A database holds many homes by name; a home file of the same name and other content is
+    refused, naming both hashes, and nothing stored changes."""
     db, _ = built
     before = _snapshot(db)
-    ctx = (
-        "time=7:00,temperature=25,illumination=100,location=bed,posture=lie,behavior=sleep,window=off,"
-        "curtain=off,tv_living=off,tv_bedroom=off,ac_living=off,ac_bedroom=off,lamp=off,ceiling_light=off"
-    )
-    code, _out, err = run(capsys, "correct", "--home", "paper", "--db", db, "--context", ctx, "--want", "")
+    other = tmp_path / "studio.yaml"
+    other.write_text(Path(STUDIO).read_text() + "\nrewards: {magnitude: 5}\n")
+    code, _out, err = run(capsys, "correct", "--home", other, "--db", db, "--context", CTX, "--want", "")
     assert code == 2
-    assert "holds the knowledge of home 'studio'" in err and "not of home 'paper'" in err
+    assert "holds the knowledge of home 'studio'" in err and "not of this file's home 'studio'" in err
     assert err.count("\n") == 1
     assert _snapshot(db) == before
 

@@ -27,12 +27,13 @@ from servers import (
 from sqlalchemy import func, select
 
 from homecog.errors import ContextError, StoreError
-from homecog.home import Home
+from homecog.home import Home, load_home_text
 from homecog.knowledge.ihdr import IHDRTree
 from homecog.knowledge.pipeline import build
 from homecog.knowledge.schema import ExperienceRow, UserRow
 from homecog.knowledge.store import Store
 
+STUDIO_TEXT = (Path(__file__).parent / "homes" / "studio.yaml").read_text()
 WORK = {"time": "10:00", "light": 100, "activity": "work", "blind": "off", "desk_lamp": "off", "radio": "off"}
 EVENING = {
     "time": "21:00",
@@ -233,12 +234,22 @@ def test_bad_correction_leaves_the_store_unchanged(
 
 
 # -- the wrong database -------------------------------------------------------------------------------------
-def test_refuses_another_home(built: tuple[Store, IHDRTree], db_url: str, paper: Home) -> None:
+def test_many_homes_and_a_changed_home_file(
+    built: tuple[Store, IHDRTree], db_url: str, paper: Home, studio: Home
+) -> None:
+    """One database holds many homes by name (SPEC §14); a home file of a stored name and other
+    content is refused, naming both hashes."""
+    other = Store(db_url, paper)
+    try:
+        assert not other.has_tree() and other.counts()["nodes"] == 0
+    finally:
+        other.close()
+    changed = load_home_text(STUDIO_TEXT + "\nrewards: {magnitude: 5}\n", "studio.yaml")
     with pytest.raises(StoreError) as info:
-        Store(db_url, paper)
+        Store(db_url, changed)
     message = str(info.value)
-    assert "'studio'" in message
-    assert "'paper'" in message
+    assert "home 'studio'" in message and studio.content_hash[:12] in message
+    assert changed.content_hash[:12] in message
     assert "\n" not in message
 
 

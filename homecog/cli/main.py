@@ -14,7 +14,7 @@ import typer
 # Typer 0.29 carries its own copy of click; its exceptions live there (typer is pinned).
 from typer._click import exceptions as click_errors
 
-from homecog.cli import evaluate, home, knowledge, learn, plan, up
+from homecog.cli import evaluate, fleet, home, knowledge, learn, plan, up
 from homecog.cli.ha import ha_app
 from homecog.errors import HomecogError
 
@@ -28,6 +28,9 @@ app = typer.Typer(
 home_app = typer.Typer(help="Show or check home definitions.", no_args_is_help=True)
 app.add_typer(home_app, name="home")
 app.add_typer(ha_app, name="ha")
+fleet_app = typer.Typer(help="Learn a fleet of homes into one database (SPEC §14).", no_args_is_help=True)
+app.add_typer(fleet_app, name="fleet")
+fleet_app.command("train")(fleet.fleet_train)
 home_app.command("show")(home.home_show)
 home_app.command("check")(home.home_check)
 app.command()(learn.train)
@@ -40,6 +43,7 @@ app.command("adapt-mit")(evaluate.adapt_mit)
 app.command()(plan.plan)
 app.command()(plan.simulate)
 app.command()(up.up)
+app.command()(fleet.serve)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -97,4 +97,24 @@ def db_message(url: str, e: BaseException) -> str:
     return f"--db {redact(url)}: cannot use the database: {text_}"
 
 
+def migrate(engine: Engine) -> None:
+    """Make or migrate the schema of a database to the latest (Alembic's ``upgrade head``)."""
+    from alembic import command
+    from alembic.config import Config
+    from alembic.util.exc import CommandError
+
+    cfg = Config()
+    cfg.set_main_option("script_location", str(Path(__file__).parent / "migrations"))
+    try:
+        with engine.begin() as conn:
+            cfg.attributes["connection"] = conn
+            command.upgrade(cfg, "head")
+    except CommandError as e:  # a revision we do not know: a newer homecog made the database
+        url = redact(engine.url.render_as_string(hide_password=False))
+        raise StoreError(
+            f"--db {url}: a database of a schema this homecog does not know ({e}); "
+            "use the homecog that made it, or a newer one"
+        ) from None
+
+
 # -- encoding the tree -------------------------------------------------------------------------

@@ -74,7 +74,7 @@ def correction_history(store: Store, *, user: str | None = None, limit: int = 50
     """
     if user is not None and "\x00" in user:
         return History(0, [])  # no correction is by such a name, and PostgreSQL refuses to look
-    where = [ExperienceRow.kind == "correction"]
+    where = [ExperienceRow.home == store.home.name, ExperienceRow.kind == "correction"]
     if user is not None:
         where.append(ExperienceRow.user == user)
     latest = (

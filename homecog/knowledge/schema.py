@@ -1,23 +1,37 @@
 """The knowledge store's tables (SPEC §6), as SQLAlchemy 2 models; Alembic migrations in
 ``migrations/`` make and change them.
 
-- ``homes``: the home a database is made for, its hash, the mode, the tree's counters;
+- ``homes``: one row per home, under its name: its hash, home file, Q tables, mode, the tree's
+  counters and a version that moves on every write;
 - ``nodes``: rows with a parent (root, categories, services);
 - ``clusters``: conditions as JSON, ``user`` NULL for the shared tree, else the user's layer;
 - ``users``: a row per household member, the lock their corrections take, a version;
 - ``experiences``: the append-only log of sample batches, single samples and corrections,
-  indexed by (kind, user, id) for counts and the history of corrections.
+  indexed by (home, kind, user, id) for counts and the history of corrections.
+
+Every table but ``homes`` has a ``home`` column, the home's name, first in its keys: one
+database holds many homes (SPEC §14).
 """
 
 from __future__ import annotations
 
 from datetime import datetime
 
-from sqlalchemy import BigInteger, DateTime, Double, ForeignKey, Index, Integer, LargeBinary, String, Text
+from sqlalchemy import (
+    BigInteger,
+    DateTime,
+    Double,
+    ForeignKeyConstraint,
+    Index,
+    Integer,
+    LargeBinary,
+    String,
+    Text,
+)
 from sqlalchemy.dialects import mysql
 from sqlalchemy.orm import DeclarativeBase, Mapped, mapped_column
 
-SCHEMA_VERSION = "0002"
+SCHEMA_VERSION = "0003"
 _LongBlob = LargeBinary().with_variant(mysql.LONGBLOB(), "mysql", "mariadb")
 _LongText = Text().with_variant(mysql.LONGTEXT(), "mysql", "mariadb")
 
@@ -27,23 +41,32 @@ class Base(DeclarativeBase):
 
 
 class HomeRow(Base):
-    """The home this database is made for (one per database)."""
+    """A home of the database (many since migration 0003), under its name: its content hash,
+    the home file and the Q tables it was built from, the mode, the tree's counters, and a
+    version that moves on every write (build, correction) so servers see staleness cheaply."""
 
     __tablename__ = "homes"
-    id: Mapped[int] = mapped_column(Integer, primary_key=True)
-    name: Mapped[str] = mapped_column(String(200))
+    name: Mapped[str] = mapped_column(String(200), primary_key=True)
     content_hash: Mapped[str] = mapped_column(String(64))
     mode: Mapped[str] = mapped_column(String(16))
     built_at: Mapped[datetime | None] = mapped_column(DateTime, nullable=True)
     state: Mapped[str | None] = mapped_column(_LongText, nullable=True)  # JSON: precedence, counters
+    version: Mapped[int] = mapped_column(BigInteger, default=0)
+    build: Mapped[int] = mapped_column(BigInteger, default=0)  # moves on every build only
+    source: Mapped[str | None] = mapped_column(_LongText, nullable=True)  # the home file (YAML)
+    policy: Mapped[bytes | None] = mapped_column(_LongBlob, nullable=True)  # the Q tables (.npz)
 
 
 class NodeRow(Base):
-    """A node of the tree: root, category or service, with its parent."""
+    """A node of a home's tree: root, category or service, with its parent."""
 
     __tablename__ = "nodes"
+    __table_args__ = (
+        ForeignKeyConstraint(["home", "parent_id"], ["nodes.home", "nodes.id"], name="fk_nodes_parent"),
+    )
+    home: Mapped[str] = mapped_column(String(200), primary_key=True)
     id: Mapped[int] = mapped_column(Integer, primary_key=True, autoincrement=False)
-    parent_id: Mapped[int | None] = mapped_column(ForeignKey("nodes.id"), nullable=True)
+    parent_id: Mapped[int | None] = mapped_column(Integer, nullable=True)
     name: Mapped[str] = mapped_column(String(200))
     kind: Mapped[str] = mapped_column(String(16))
     service: Mapped[int] = mapped_column(Integer)
@@ -55,9 +78,15 @@ class ClusterRow(Base):
     """A cluster of a node; ``user`` is NULL for the shared tree, else the user's layer."""
 
     __tablename__ = "clusters"
+    __table_args__ = (
+        ForeignKeyConstraint(["home", "node_id"], ["nodes.home", "nodes.id"], name="fk_clusters_node"),
+        Index("ix_clusters_home_node", "home", "node_id"),
+        Index("ix_clusters_home_user", "home", "user"),
+    )
     id: Mapped[int] = mapped_column(Integer, primary_key=True)
-    node_id: Mapped[int] = mapped_column(ForeignKey("nodes.id"), index=True)
-    user: Mapped[str | None] = mapped_column(String(200), nullable=True, index=True)
+    home: Mapped[str] = mapped_column(String(200))
+    node_id: Mapped[int] = mapped_column(Integer)
+    user: Mapped[str | None] = mapped_column(String(200), nullable=True)
     tree_id: Mapped[int] = mapped_column(BigInteger)
     polarity: Mapped[int] = mapped_column(Integer)
     conditions: Mapped[str] = mapped_column(_LongText)
@@ -68,9 +97,10 @@ class ClusterRow(Base):
 
 
 class UserRow(Base):
-    """A household member: the lock their corrections take, and a version for caches."""
+    """A household member of a home: the lock their corrections take, and a version for caches."""
 
     __tablename__ = "users"
+    home: Mapped[str] = mapped_column(String(200), primary_key=True)
     name: Mapped[str] = mapped_column(String(200), primary_key=True)
     version: Mapped[int] = mapped_column(BigInteger, default=0)
     corrections: Mapped[int] = mapped_column(BigInteger, default=0)
@@ -80,8 +110,9 @@ class ExperienceRow(Base):
     """The append-only experience log: sample batches, single samples and corrections."""
 
     __tablename__ = "experiences"
-    __table_args__ = (Index("ix_experiences_kind_user_id", "kind", "user", "id"),)  # migration 0002
+    __table_args__ = (Index("ix_experiences_home_kind_user_id", "home", "kind", "user", "id"),)
     id: Mapped[int] = mapped_column(Integer, primary_key=True, autoincrement=True)
+    home: Mapped[str] = mapped_column(String(200))
     kind: Mapped[str] = mapped_column(String(16))
     user: Mapped[str | None] = mapped_column(String(200), nullable=True)
     created_at: Mapped[datetime] = mapped_column(DateTime)

@@ -10,7 +10,13 @@ A correction locks its user's row (``SELECT … FOR UPDATE``; SQLite takes the d
 write lock), reloads that user's layer if another process changed it, applies the
 correction and writes it back, so concurrent corrections lose nothing.
 
-The learner never touches SQL: this module maps the tree to rows and back.
+One database holds many homes (SPEC §14): every row is under its home's name, and a Store is
+one home's view of the database. The home's row has a version that moves on every write (a
+build, a correction), so a server that keeps a tree in memory sees cheaply whether it is stale
+(:meth:`Store.home_version`).
+
+The learner never touches SQL: this module maps the tree to rows and back; the log's reading
+(counts, the rebuild from the log) is in :mod:`homecog.knowledge.store_log`.
 """
 
 from __future__ import annotations
@@ -21,22 +27,21 @@ import time
 from collections.abc import Iterator
 from contextlib import contextmanager
 from datetime import UTC, datetime
-from pathlib import Path
 from typing import Any
 
-from sqlalchemy import delete, func, insert, select, text, update
-from sqlalchemy.engine import Connection
+from sqlalchemy import delete, func, insert, select, update
+from sqlalchemy.engine import Connection, Engine
 from sqlalchemy.exc import DBAPIError, OperationalError, SQLAlchemyError
 
 from homecog.errors import ConflictError, StoreError
 from homecog.home.codec import Point
 from homecog.home.model import Home
-from homecog.knowledge import sample_log
 from homecog.knowledge.database import (
     db_message,
     default_url,
     is_conflict,
     make_engine,
+    migrate,
     redact,
 )
 from homecog.knowledge.ihdr import IHDRTree
@@ -47,19 +52,19 @@ from homecog.knowledge.rows import (
     log_rows,
     node_rows,
     sample_rows,
-    samples_from,
 )
 from homecog.knowledge.sample_log import SampleLog
 from homecog.knowledge.samples import SampleSet
-from homecog.knowledge.schema import Base, ClusterRow, ExperienceRow, HomeRow, NodeRow, UserRow
+from homecog.knowledge.schema import ClusterRow, ExperienceRow, HomeRow, NodeRow, UserRow
 from homecog.knowledge.state import NodeState, TreeState
+from homecog.knowledge.store_log import StoreLog
 
-__all__ = ["Store", "StoreError", "default_url", "redact"]
+__all__ = ["Store", "StoreError", "default_url", "migrate", "redact"]
 SAMPLES_PER_ROW = 32768
 CONFLICT_RETRIES = 50  # attempts of a correction that the server aborts for a deadlock
 
 
-class Store:
+class Store(StoreLog):
     """The knowledge of one home in one database.
 
     >>> from homecog.home import load_home
@@ -68,44 +73,41 @@ class Store:
     False
     """
 
-    def __init__(self, url: str | None, home: Home) -> None:
+    def __init__(
+        self, url: str | None, home: Home, *, engine: Engine | None = None, replace: bool = False
+    ) -> None:
+        """``engine``: one shared by the stores of many homes, its schema already migrated
+        (:func:`migrate`); it is not closed with the store. ``replace``: a home stored under the
+        same name from another home file is replaced by the next build, not refused."""
         self.home = home
         self.url = url or default_url(home)
-        self.engine = make_engine(self.url)
+        self._own_engine = engine is None
+        self.engine = make_engine(self.url) if engine is None else engine
         self._versions: dict[str, int] = {}
         self._known_users: set[str] = set()
         self._batch: Connection | None = None  # the transaction corrections share (see batch)
+        self._build = 0  # the build of the tree last loaded
         try:
-            self._migrate()
-            self._check_home()
+            if self._own_engine:
+                migrate(self.engine)
+            if not replace:
+                self._check_home()
         except StoreError:
-            self.engine.dispose()
+            self.close()
             raise
         except (SQLAlchemyError, DBAPIError, OSError) as e:
-            self.engine.dispose()
+            self.close()
             raise StoreError(db_message(self.url, e)) from None
 
     # -- schema ---------------------------------------------------------------------------------
-    def _migrate(self) -> None:
-        from alembic import command
-        from alembic.config import Config
-
-        cfg = Config()
-        cfg.set_main_option("script_location", str(Path(__file__).parent / "migrations"))
-        with self.engine.begin() as conn:
-            cfg.attributes["connection"] = conn
-            command.upgrade(cfg, "head")
-
     def _check_home(self) -> None:
         with self.engine.begin() as conn:
-            row = conn.execute(select(HomeRow).where(HomeRow.id == 1)).first()
-            if row is None:
-                return
-            if row.content_hash != self.home.content_hash:
+            row = conn.execute(select(HomeRow.content_hash).where(HomeRow.name == self.home.name)).first()
+            if row is not None and row.content_hash != self.home.content_hash:
                 raise StoreError(
-                    f"--db {redact(self.url)}: holds the knowledge of home '{row.name}' "
-                    f"({row.content_hash[:12]}), not of home '{self.home.name}' "
-                    f"({self.home.content_hash[:12]}); use another database"
+                    f"--db {redact(self.url)}: holds the knowledge of home '{self.home.name}' "
+                    f"({row.content_hash[:12]}), not of this file's home '{self.home.name}' "
+                    f"({self.home.content_hash[:12]}); name the home otherwise or use another database"
                 )
 
     @contextmanager
@@ -124,7 +126,8 @@ class Store:
             raise StoreError(db_message(self.url, e)) from None
 
     def close(self) -> None:
-        self.engine.dispose()
+        if self._own_engine:
+            self.engine.dispose()
 
     @contextmanager
     def batch(self) -> Iterator[None]:
@@ -148,57 +151,19 @@ class Store:
     # -- reading --------------------------------------------------------------------------------
     def has_tree(self) -> bool:
         with self._tx() as conn:
-            row = conn.execute(select(HomeRow.built_at).where(HomeRow.id == 1)).first()
+            row = conn.execute(select(HomeRow.built_at).where(HomeRow.name == self.home.name)).first()
             return row is not None and row[0] is not None
 
     def mode(self) -> str | None:
         with self._tx() as conn:
-            row = conn.execute(select(HomeRow.mode).where(HomeRow.id == 1)).first()
+            row = conn.execute(select(HomeRow.mode).where(HomeRow.name == self.home.name)).first()
             return None if row is None else row[0]
-
-    def counts(self) -> dict[str, int]:
-        """Rows per table: nodes, clusters (shared and per user), experiences, users."""
-        with self._tx() as conn:
-            return {
-                "nodes": conn.execute(select(func.count()).select_from(NodeRow)).scalar_one(),
-                "clusters": conn.execute(
-                    select(func.count()).select_from(ClusterRow).where(ClusterRow.user.is_(None))
-                ).scalar_one(),
-                "user_clusters": conn.execute(
-                    select(func.count()).select_from(ClusterRow).where(ClusterRow.user.is_not(None))
-                ).scalar_one(),
-                "experiences": conn.execute(select(func.count()).select_from(ExperienceRow)).scalar_one(),
-                "corrections": conn.execute(
-                    select(func.count()).select_from(ExperienceRow).where(ExperienceRow.kind == "correction")
-                ).scalar_one(),
-                "users": conn.execute(select(func.count()).select_from(UserRow)).scalar_one(),
-            }
-
-    def experience_count(self) -> int:
-        """Experiences in the log: every sample of every build, every single sample and correction."""
-        with self._tx() as conn:
-            # single samples and corrections: one indexed count; every build's samples: the
-            # total the last build wrote beside the tree
-            others = conn.execute(
-                select(func.count()).select_from(ExperienceRow).where(ExperienceRow.kind != "samples")
-            ).scalar_one()
-            return others + self._samples_logged(conn)
-
-    @staticmethod
-    def _samples_logged(conn: Connection) -> int:
-        """Samples in the log, of every build (read from the sample batches in databases older
-        than that count)."""
-        state = conn.execute(select(HomeRow.state).where(HomeRow.id == 1)).scalar_one_or_none()
-        counters = json.loads(state or "{}")
-        if "samples_logged" in counters:
-            return int(counters["samples_logged"])
-        batches = conn.execute(select(ExperienceRow.payload).where(ExperienceRow.kind == "samples"))
-        return sum(json.loads(p).get("count", 0) for (p,) in batches)
 
     def load_tree(self) -> IHDRTree:
         """The tree as stored: shared nodes and clusters, and every user's layer."""
+        h = self.home.name
         with self._tx() as conn:
-            home_row = conn.execute(select(HomeRow).where(HomeRow.id == 1)).first()
+            home_row = conn.execute(select(HomeRow).where(HomeRow.name == h)).first()
             if home_row is None or home_row.built_at is None:
                 raise StoreError(f"--db {redact(self.url)}: no knowledge tree yet; run homecog build")
             counters = json.loads(home_row.state or "{}")
@@ -206,7 +171,7 @@ class Store:
                 mode=home_row.mode,
                 nodes=[
                     NodeState(r.id, r.parent_id, r.name, r.kind, r.service, r.count, r.position_sum)
-                    for r in conn.execute(select(NodeRow).order_by(NodeRow.id))
+                    for r in conn.execute(select(NodeRow).where(NodeRow.home == h).order_by(NodeRow.id))
                 ],
                 shared=[],
                 precedence=counters.get("precedence", []),
@@ -216,7 +181,7 @@ class Store:
             )
             for row in conn.execute(
                 select(ClusterRow)
-                .where(ClusterRow.user.is_(None))
+                .where(ClusterRow.home == h, ClusterRow.user.is_(None))
                 .order_by(ClusterRow.node_id, ClusterRow.seq, ClusterRow.id)
             ):
                 state.shared.append((row.node_id, cluster_from_row(row)))
@@ -224,7 +189,7 @@ class Store:
             # are left unread)
             for row in conn.execute(
                 select(ExperienceRow.user, ExperienceRow.payload)
-                .where(ExperienceRow.kind == "correction")
+                .where(ExperienceRow.home == h, ExperienceRow.kind == "correction")
                 .order_by(ExperienceRow.id)
             ):
                 state.users.setdefault(row.user or "default", []).append(
@@ -234,8 +199,10 @@ class Store:
                 tree = IHDRTree.from_state(self.home, state)
             except (ValueError, KeyError):
                 raise StoreError(f"--db {redact(self.url)}: the stored tree does not fit the home") from None
-            for row in conn.execute(select(UserRow.name, UserRow.version)):
+            self._versions = {}
+            for row in conn.execute(select(UserRow.name, UserRow.version).where(UserRow.home == h)):
                 self._versions[row.name] = row.version
+            self._build = home_row.build
             return tree
 
     def refresh_user(self, tree: IHDRTree, user: str) -> None:
@@ -244,14 +211,18 @@ class Store:
             self._reload_user_if_stale(conn, tree, user, lock=False)
 
     def _reload_user_if_stale(self, conn: Connection, tree: IHDRTree, user: str, *, lock: bool) -> int:
-        query = select(UserRow.version).where(UserRow.name == user)
+        query = select(UserRow.version).where(UserRow.home == self.home.name, UserRow.name == user)
         if lock and conn.dialect.name != "sqlite":
             query = query.with_for_update()
         version = conn.execute(query).scalar_one_or_none() or 0
         if version != self._versions.get(user, 0):
             rows = conn.execute(
                 select(ExperienceRow.payload)
-                .where(ExperienceRow.kind == "correction", ExperienceRow.user == user)
+                .where(
+                    ExperienceRow.home == self.home.name,
+                    ExperienceRow.kind == "correction",
+                    ExperienceRow.user == user,
+                )
                 .order_by(ExperienceRow.id)
             )
             tree.set_user_examples(user, [example_from_payload(self.home, json.loads(p)) for (p,) in rows])
@@ -260,58 +231,83 @@ class Store:
 
     # -- writing --------------------------------------------------------------------------------
     def save_build(
-        self, tree: IHDRTree, samples: SampleSet | SampleLog, *, seconds: float | None = None
+        self,
+        tree: IHDRTree,
+        samples: SampleSet | SampleLog,
+        *,
+        seconds: float | None = None,
+        source: str | None = None,
+        policy: bytes | None = None,
     ) -> None:
-        """Store a freshly built tree and its samples, in one transaction.
+        """Store a freshly built tree and its samples, in one transaction, with the home file
+        (``source``) and the Q tables (``policy``, the ``.npz`` bytes) it was built from.
 
         ``samples`` is a build's :class:`~homecog.knowledge.sample_log.SampleLog` (compact), or
         one sample set stored with its codes and readings. Users' corrections already in the
         log are replayed on the new tree, so a rebuild (another mode, a retrained Q table)
-        loses none of them.
+        loses none of them. A home stored from another home file (a store opened with
+        ``replace``) is replaced whole: its log, users and corrections go with it.
         """
-        corrections = self._corrections()
-        for kind, user, payload in corrections:
-            tree.replay(kind, user, payload)
+        h = self.home.name
+        with self._tx() as conn:
+            stored = conn.execute(select(HomeRow.content_hash).where(HomeRow.name == h)).scalar()
+        replaced = stored is not None and stored != self.home.content_hash
+        if not replaced:
+            for kind, user, payload in self._corrections():
+                tree.replay(kind, user, payload)
         with self._tx() as conn:
             now = datetime.now(UTC).replace(tzinfo=None)
+            if replaced:
+                for table in (ExperienceRow, UserRow):
+                    conn.execute(delete(table).where(table.home == h))
             build_id = (conn.execute(select(func.max(ExperienceRow.id))).scalar_one() or 0) + 1
             logged = self._samples_logged(conn) + len(samples)
-            conn.execute(delete(ClusterRow))
-            conn.execute(update(NodeRow).values(parent_id=None))
-            conn.execute(delete(NodeRow))
-            conn.execute(delete(HomeRow))
+            conn.execute(delete(ClusterRow).where(ClusterRow.home == h))
+            conn.execute(update(NodeRow).where(NodeRow.home == h).values(parent_id=None))
+            conn.execute(delete(NodeRow).where(NodeRow.home == h))
             state = tree.to_state()
             counters = {**state.counters(), "samples_logged": logged}
-            home_row = {
-                "id": 1,
-                "name": self.home.name,
+            values = {
                 "content_hash": self.home.content_hash,
                 "mode": tree.mode,
                 "built_at": now,
                 "state": json.dumps(counters),
+                "source": source,
+                "policy": policy,
             }
-            conn.execute(insert(HomeRow), [home_row])
-            conn.execute(insert(NodeRow), node_rows(state))
+            moved = conn.execute(
+                update(HomeRow)
+                .where(HomeRow.name == h)
+                .values(**values, version=HomeRow.version + 1, build=HomeRow.build + 1)
+            ).rowcount
+            if not moved:
+                conn.execute(insert(HomeRow), [{**values, "name": h, "version": 1, "build": 1}])
+            conn.execute(insert(NodeRow), _keyed(node_rows(state), h))
             self._write_clusters(conn, tree)
             if isinstance(samples, SampleLog):
                 rows = log_rows(samples, build_id, tree.mode, seconds, now)
             else:
                 rows = sample_rows(samples, build_id, tree.mode, seconds, now)
-            conn.execute(insert(ExperienceRow), rows)
+            conn.execute(insert(ExperienceRow), _keyed(rows, h))
             for user in tree.users:
                 self._ensure_user(conn, user)
-                conn.execute(update(UserRow).where(UserRow.name == user).values(version=UserRow.version + 1))
+                conn.execute(
+                    update(UserRow)
+                    .where(UserRow.home == h, UserRow.name == user)
+                    .values(version=UserRow.version + 1)
+                )
         self._versions = {}
+        self._build = -1  # a tree loaded earlier is not this build's
 
     def _write_clusters(self, conn: Connection, tree: IHDRTree) -> None:
         """Insert the shared clusters (a user's layer is their corrections in the log)."""
         pairs = [(node.id, c) for node, c in tree.shared_clusters()]
         if pairs:
-            conn.execute(insert(ClusterRow), cluster_rows(pairs, None))
+            conn.execute(insert(ClusterRow), _keyed(cluster_rows(pairs, None), self.home.name))
 
     def _ensure_user(self, conn: Connection, user: str) -> None:
         dialect = conn.dialect.name
-        values = {"name": user, "version": 0, "corrections": 0}
+        values = {"home": self.home.name, "name": user, "version": 0, "corrections": 0}
         if dialect == "postgresql":
             from sqlalchemy.dialects.postgresql import insert as pg_insert
 
@@ -365,6 +361,7 @@ class Store:
                     insert(ExperienceRow),
                     [
                         {
+                            "home": self.home.name,
                             "kind": "correction",
                             "user": user,
                             "created_at": datetime.now(UTC).replace(tzinfo=None),
@@ -375,8 +372,11 @@ class Store:
                 )
                 conn.execute(
                     update(UserRow)
-                    .where(UserRow.name == user)
+                    .where(UserRow.home == self.home.name, UserRow.name == user)
                     .values(version=UserRow.version + 1, corrections=UserRow.corrections + 1)
+                )
+                conn.execute(  # servers holding this home's tree see it move
+                    update(HomeRow).where(HomeRow.name == self.home.name).values(version=HomeRow.version + 1)
                 )
         except BaseException:
             self._versions.pop(user, None)  # the tree may hold what did not commit: reload next time
@@ -386,53 +386,7 @@ class Store:
         self._known_users.add(user)
         return added, rejected
 
-    # -- the log ----------------------------------------------------------------------------------
-    def _corrections(self) -> list[tuple[str, str | None, dict[str, Any]]]:
-        with self._tx() as conn:
-            rows = conn.execute(
-                select(ExperienceRow.kind, ExperienceRow.user, ExperienceRow.payload)
-                .where(ExperienceRow.kind.in_(["correction", "sample"]))
-                .order_by(ExperienceRow.id)
-            )
-            return [(r.kind, r.user, json.loads(r.payload)) for r in rows]
 
-    def rebuild(self) -> IHDRTree:
-        """The tree rebuilt from the experience log alone: the last build's samples, then every
-        single sample and correction in the order they were committed."""
-        with self._tx() as conn:
-            rows = conn.execute(
-                select(
-                    ExperienceRow.id,
-                    ExperienceRow.kind,
-                    ExperienceRow.user,
-                    ExperienceRow.payload,
-                    ExperienceRow.data,
-                ).order_by(ExperienceRow.id)
-            ).all()
-        builds = [json.loads(r.payload)["build"] for r in rows if r.kind == "samples"]
-        if not builds:
-            raise StoreError(f"--db {redact(self.url)}: the log holds no samples; run homecog build")
-        last = max(builds)
-        parts = [r for r in rows if r.kind == "samples" and json.loads(r.payload)["build"] == last]
-        parts.sort(key=lambda r: json.loads(r.payload)["part"])
-        meta = json.loads(parts[0].payload)
-        tree = IHDRTree(self.home, mode=meta["mode"])
-        if meta.get("format") == sample_log.FORMAT:
-            logged = [(json.loads(r.payload), r.data) for r in parts]
-            try:
-                for samples in sample_log.regenerate(self.home, logged):
-                    tree.learn_many(samples)
-            except ValueError as e:
-                raise StoreError(f"--db {redact(self.url)}: {e}") from None
-        else:
-            tree.learn_many(samples_from(self.home, [sample_log.unpack(r.data) for r in parts]))
-        for r in rows:
-            if r.kind in ("correction", "sample"):
-                tree.replay(r.kind, r.user, json.loads(r.payload))
-        return tree
-
-    def drop_all(self) -> None:
-        """Remove every table (tests use it to leave a server database clean)."""
-        with self.engine.begin() as conn:
-            Base.metadata.drop_all(conn)
-            conn.execute(text("DROP TABLE IF EXISTS alembic_version"))
+def _keyed(rows: list[dict[str, Any]], home: str) -> list[dict[str, Any]]:
+    """Rows under their home's name."""
+    return [{**row, "home": home} for row in rows]

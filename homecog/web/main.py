@@ -38,13 +38,15 @@ from homecog.web.runtime import Runtime
 from homecog.web.settings import Settings
 
 
-def create_app(runtime: Runtime, settings: Settings | None = None) -> ASGIApp:
+def create_app(runtime: Runtime, settings: Settings | None = None, *, fleet: bool = False) -> ASGIApp:
     """The ASGI application serving ``runtime``.
 
     It is the FastAPI application (routes, OpenAPI), reached as ``.app.app``, behind two plain
     ASGI layers: the body limit, then the fast path of ``POST /api/cognize``. With
     ``settings.live``, the server's clock moves the home that many simulated seconds per real
-    second, and the robot acts on what it proposes.
+    second, and the robot acts on what it proposes. ``fleet``: one home of ``homecog serve``
+    (:mod:`homecog.fleet.serve`): only the routes whose state the database holds (the home,
+    cognition, corrections, plans, the history), no page, no context, no events.
     """
     settings = settings if settings is not None else Settings()
     models = HomeModels.of(runtime.home)
@@ -64,14 +66,20 @@ def create_app(runtime: Runtime, settings: Settings | None = None) -> ASGIApp:
     )
     app.state.runtime, app.state.settings, app.state.models = runtime, settings, models
     errors.install(app, runtime.home)
-    app.include_router(page.router)  # first: after cognition, the most asked for
+    if not fleet:
+        app.include_router(page.router)  # first: after cognition, the most asked for
     guarded: dict[str, Any] = {}
     if settings.token is not None:
         guarded = {"dependencies": [Security(require_token)], "responses": errors.responses(401)}
     app.include_router(home.router, **guarded)
-    for make in (context.router, cognize.router, corrections.router, plan.router):
+    makers = (cognize.router, corrections.router, plan.router)
+    for make in makers if fleet else (context.router, *makers):
         app.include_router(make(models), **guarded)
     app.include_router(history.router, **guarded)
+    if fleet:
+        return BodyLimit(
+            CognizeFastPath(app, runtime, models.cognize_in, settings.token), limit=settings.max_body
+        )
     app.include_router(source.router, **guarded)
     if settings.token is not None:
         guarded = {

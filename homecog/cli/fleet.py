@@ -1,0 +1,155 @@
+"""``homecog fleet train`` and ``homecog serve``: a fleet of homes in one database (SPEC §14)."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from homecog.cli.options import JsonOption, UsageProblemError
+from homecog.cli.output import emit_json, stderr, stdout
+
+FleetDb = Annotated[
+    str | None,
+    typer.Option("--db", help="Database URL of the fleet (default: $HOMECOG_DB); PostgreSQL in production."),
+]
+
+
+def _db(db: str | None) -> str:
+    url = db or os.environ.get("HOMECOG_DB")
+    if not url:
+        raise UsageProblemError("--db URL (or $HOMECOG_DB) is needed: the database of the fleet")
+    return url
+
+
+def fleet_train(
+    folder: Annotated[Path, typer.Argument(help="A folder of home files (*.yaml).")],
+    db: FleetDb = None,
+    ray: Annotated[
+        str | None, typer.Option("--ray", help="Address of a Ray cluster (default: a local Ray here).")
+    ] = None,
+    workers: Annotated[int, typer.Option(min=1, max=1024, help="CPUs of the local Ray.")] = 2,
+    serial: Annotated[
+        bool, typer.Option("--serial", help="One home after another here, without Ray.")
+    ] = False,
+    seed: Annotated[int, typer.Option(min=0, help="Seed of training and samples.")] = 0,
+    json_out: JsonOption = False,
+) -> int:
+    """Learn every home file of FOLDER into one database: training, samples and tree, as tasks
+    on Ray; a home already learned for the same content is skipped, one that fails is reported."""
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+    from homecog.fleet.train import HomeResult, fleet_train, home_files
+    from homecog.knowledge.database import redact
+
+    url = _db(db)
+    if ray is not None and serial:
+        raise UsageProblemError("--serial runs without Ray; it goes without --ray")
+    total = len(home_files(folder))
+    how = (
+        "serially"
+        if serial or (workers == 1 and ray is None)
+        else f"on Ray ({ray or f'local, {workers} CPUs'})"
+    )
+    serial = serial or (workers == 1 and ray is None)
+    with Progress(
+        TextColumn("{task.description}"),
+        BarColumn(),
+        MofNCompleteColumn(),
+        TimeElapsedColumn(),
+        console=stderr,
+        disable=json_out or not stderr.is_terminal,
+    ) as progress:
+        task = progress.add_task(f"learning {total} homes {how}", total=total)
+
+        def report(r: HomeResult) -> None:
+            progress.advance(task)
+            if json_out:
+                return
+            name = r.home or r.file
+            if r.status == "learned":
+                rate = r.greedy_optimal_rate or 0.0
+                line = f"  {name}: learned, {r.samples:,} samples, rate {rate:.4f}, {r.seconds:.1f} s"
+            elif r.status == "skipped":
+                line = f"  {name}: skipped (learned already for this content)"
+            else:
+                line = f"  {name}: failed: {r.error}"
+            progress.console.print(line, style="red" if r.status == "failed" else None, highlight=False)
+
+        results, seconds = fleet_train(
+            folder, url, address=ray, workers=workers, serial=serial, seed=seed, on_result=report
+        )
+    failed = [r for r in results if r.status == "failed"]
+    learned = [r for r in results if r.status == "learned"]
+    if json_out:
+        emit_json(
+            {
+                "homes": [r.as_dict() for r in results],
+                "seconds": seconds,
+                "workers": 1 if serial else workers,
+                "ray": None if serial else (ray or "local"),
+                "db": redact(url),
+            }
+        )
+    else:
+        per_minute = 60 * len(learned) / seconds if seconds > 0 else 0.0
+        stdout.print(
+            f"{len(learned)} learned, {len(results) - len(learned) - len(failed)} skipped, "
+            f"{len(failed)} failed in {seconds:.1f} s ({per_minute:.1f} homes/min) into {redact(url)}"
+        )
+    return 1 if failed else 0
+
+
+def serve(
+    db: FleetDb = None,
+    host: Annotated[
+        str, typer.Option(help="Address to serve on; any but 127.0.0.1 needs a token.")
+    ] = "127.0.0.1",
+    port: Annotated[int, typer.Option(min=1, max=65535, help="Port to serve on.")] = 8000,
+    token: Annotated[
+        str | None,
+        typer.Option(
+            help="Token every /api request needs (default: $HOMECOG_TOKEN; generated off 127.0.0.1)."
+        ),
+    ] = None,
+    cache: Annotated[
+        int, typer.Option(min=1, max=1_000_000, help="Homes' trees kept in memory at most.")
+    ] = 128,
+) -> None:
+    """Serve the HTTP API of every home of the database (/api/homes/{home}/...), stateless."""
+    import gc
+    import secrets
+
+    import uvicorn
+
+    from homecog.cli.up import LOCAL_HOSTS
+    from homecog.fleet.serve import Fleet, FleetApp
+    from homecog.knowledge.database import redact
+    from homecog.web.settings import Settings
+
+    url = _db(db)
+    if token is not None and len(token) < 8:
+        raise UsageProblemError("--token must be at least 8 characters")
+    settings = Settings.of(token=token)
+    if host not in LOCAL_HOSTS and settings.token is None:
+        settings = settings.model_copy(update={"token": secrets.token_urlsafe(24)})
+        stdout.print(f"token for every /api request (shown once): {settings.token}")
+    fleet = Fleet(url, settings, cache=cache)
+    try:
+        names = fleet.names()
+        shown = host if ":" not in host else f"[{host}]"
+        stdout.print(f"knowledge: {redact(url)} ({len(names)} homes)", style="dim")
+        stdout.print(f"homecog serves {len(names)} homes: http://{shown}:{port}/api/homes")
+        gc.freeze()
+        uvicorn.run(
+            FleetApp(fleet),
+            host=host,
+            port=port,
+            log_level="warning",
+            access_log=False,
+            proxy_headers=False,
+        )
+    finally:
+        fleet.close()

@@ -1,0 +1,309 @@
+"""``homecog serve``: the HTTP API of every home of a database (SPEC §14), stateless.
+
+``GET /api/homes`` lists the homes; under ``/api/homes/{home}/`` each home answers the
+one-home API of ``homecog up`` — ``home``, ``cognize``, ``corrections``, ``plan``,
+``history`` and ``openapi.json`` — with the same routes, models, fast path and contract
+(:func:`homecog.web.main.create_app` with ``fleet``), the path rewritten to theirs.
+
+The server keeps nothing the database lacks. A home's tree is loaded on first use into a
+bounded LRU cache (with its home, read from the home file stored with the build); every
+request reads the home's version (a primary-key lookup, batched with the other requests
+waiting at that moment: :class:`Versions`) and, when another server has written since (a
+correction, a build), brings the tree up to the database before it answers: so several
+servers behind any load balancer answer alike, and a correction through one is seen by the
+next cognition through any other. A correction goes to the database in
+its transaction (the store's), then the cache follows it.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import hmac
+import json
+import threading
+from collections import OrderedDict
+from dataclasses import dataclass
+from typing import Any
+from urllib.parse import unquote
+
+from sqlalchemy import select
+from sqlalchemy.engine import Connection
+from sqlalchemy.exc import DBAPIError, SQLAlchemyError
+
+from homecog.errors import FleetError, HomecogError, StoreError, UnknownHomeError
+from homecog.home.loader import load_home_text
+from homecog.knowledge.database import db_message, make_engine
+from homecog.knowledge.schema import HomeRow
+from homecog.knowledge.store import Store, migrate
+from homecog.knowledge.store_log import stored_homes
+from homecog.web.runtime import ManualSource, Runtime
+from homecog.web.settings import Settings
+
+PREFIX = "/api/homes"
+
+
+@dataclass
+class Entry:
+    """A home served from the cache: its store, runtime and app, and the version they hold."""
+
+    name: str
+    store: Store
+    runtime: Runtime
+    app: Any
+    version: tuple[int, int] | None
+    schema: dict[str, Any] | None = None
+
+
+class Fleet:
+    """The homes of one database, each loaded on demand, at most ``cache`` of them at once."""
+
+    def __init__(self, url: str, settings: Settings | None = None, *, cache: int = 128) -> None:
+        self.url = url
+        self.settings = settings or Settings()
+        self.cache = cache
+        self.engine = make_engine(url)
+        self._entries: OrderedDict[str, Entry] = OrderedDict()
+        self._loading = threading.Lock()
+        self._conn: Connection | None = None  # autocommit, the version reads' own (a server's)
+        try:
+            migrate(self.engine)
+        except (SQLAlchemyError, DBAPIError, OSError) as e:
+            self.engine.dispose()
+            raise StoreError(db_message(url, e)) from None
+
+    def close(self) -> None:
+        if self._conn is not None:
+            self._conn.close()
+        self.engine.dispose()
+
+    # -- the homes ----------------------------------------------------------------------------------
+    def names(self) -> list[str]:
+        """The homes with a tree, by name."""
+        try:
+            with self.engine.connect() as conn:
+                return [name for name, _, built in stored_homes(conn) if built]
+        except (SQLAlchemyError, DBAPIError) as e:
+            raise StoreError(db_message(self.url, e)) from None
+
+    def entry(self, name: str) -> Entry:
+        """The home's entry, from the cache or loaded (:class:`UnknownHomeError` naming the homes
+        there are); not checked for staleness (:meth:`fresh`)."""
+        entry = self._entries.get(name)
+        if entry is not None:
+            with contextlib.suppress(KeyError):
+                self._entries.move_to_end(name)
+            return entry
+        with self._loading:  # one load of a home at a time, not one per waiting request
+            entry = self._entries.get(name)
+            if entry is None:
+                entry = self._load(name)
+                self._entries[name] = entry
+                while len(self._entries) > self.cache:
+                    self._entries.popitem(last=False)
+            return entry
+
+    def _load(self, name: str) -> Entry:
+        try:
+            with self.engine.connect() as conn:
+                row = conn.execute(
+                    select(HomeRow.source, HomeRow.built_at).where(HomeRow.name == name)
+                ).first()
+        except (SQLAlchemyError, DBAPIError) as e:
+            raise StoreError(db_message(self.url, e)) from None
+        if row is None or row.built_at is None:
+            names = self.names()
+            raise UnknownHomeError(
+                f"unknown home {name!r}; the database holds "
+                + (", ".join(repr(n) for n in names) if names else "no home yet (homecog fleet train)")
+            )
+        if row.source is None:
+            raise FleetError(
+                f"home {name!r} was built without its home file; learn it with homecog fleet train"
+            )
+        home = load_home_text(row.source, f"{name} (stored)")
+        store = Store(self.url, home, engine=self.engine, replace=True)
+        version = store.home_version()  # before the tree: a write in between is seen next time
+        tree = store.load_tree()
+        runtime = Runtime(home=home, store=store, tree=tree, source=ManualSource(home))
+        from homecog.web.main import create_app
+
+        app = create_app(runtime, self.settings, fleet=True)
+        return Entry(name=name, store=store, runtime=runtime, app=app, version=version)
+
+    def versions(self, names: list[str]) -> dict[str, tuple[int, int]]:
+        """The homes' ``(version, build)`` in the database now (a home it lacks is left out): one
+        query on the primary key, on a connection kept for it."""
+        query = select(HomeRow.name, HomeRow.version, HomeRow.build).where(HomeRow.name.in_(names))
+        if self.engine.dialect.name == "sqlite":
+            with self.engine.connect() as conn:
+                rows = conn.execute(query).all()
+        else:
+            for attempt in (0, 1):  # a connection the server dropped: once more on a new one
+                try:
+                    if self._conn is None:
+                        self._conn = self.engine.connect().execution_options(isolation_level="AUTOCOMMIT")
+                    rows = self._conn.execute(query).all()
+                    break
+                except (SQLAlchemyError, DBAPIError) as e:
+                    if self._conn is not None:
+                        self._conn.invalidate()
+                        self._conn = None
+                    if attempt:
+                        raise StoreError(db_message(self.url, e)) from None
+        return {name: (version, build) for name, version, build in rows}
+
+    def refresh(self, entry: Entry, version: tuple[int, int]) -> None:
+        """Bring a cached home up to the database (the users' layers another server corrected,
+        or the whole tree after another build)."""
+        runtime = entry.runtime
+        with runtime.lock:
+            runtime.tree = entry.store.refresh(runtime.tree)
+            entry.version = version
+
+    def forget(self, name: str) -> None:
+        self._entries.pop(name, None)
+
+
+class Versions:
+    """The homes' versions for the requests, read in batches: every request waits for a read
+    that started after it arrived (so it sees every write committed before it), and the
+    requests that arrive while one read is under way share the next. Under load that is one
+    round trip to the database for many requests, not one each."""
+
+    def __init__(self, fleet: Fleet) -> None:
+        self.fleet = fleet
+        self._pending: dict[str, list[asyncio.Future[tuple[int, int] | None]]] = {}
+        self._reading = False
+
+    async def of(self, name: str) -> tuple[int, int] | None:
+        future: asyncio.Future[tuple[int, int] | None] = asyncio.get_running_loop().create_future()
+        self._pending.setdefault(name, []).append(future)
+        if not self._reading:
+            self._reading = True
+            asyncio.get_running_loop().create_task(self._read())
+        return await future
+
+    async def _read(self) -> None:
+        try:
+            while self._pending:
+                batch, self._pending = self._pending, {}
+                try:
+                    found = await asyncio.to_thread(self.fleet.versions, list(batch))
+                except Exception as e:  # StoreError, or anything: every waiting request gets it
+                    for futures in batch.values():
+                        for f in futures:
+                            if not f.done():
+                                f.set_exception(e)
+                    continue
+                for name, futures in batch.items():
+                    for f in futures:
+                        if not f.done():
+                            f.set_result(found.get(name))
+        finally:
+            self._reading = False
+
+
+class FleetApp:
+    """The ASGI application of :class:`Fleet`: the list of homes, and each home's own app under
+    its prefix."""
+
+    def __init__(self, fleet: Fleet) -> None:
+        self.fleet = fleet
+        self.versions = Versions(fleet)
+        token = fleet.settings.token
+        self.token = None if token is None else token.encode()
+
+    async def __call__(self, scope: dict[str, Any], receive: Any, send: Any) -> None:
+        if scope["type"] == "lifespan":
+            return await _lifespan(receive, send)
+        if scope["type"] != "http":
+            return None
+        path: str = scope["path"]
+        if path.startswith("/api") and not self._authorized(scope):
+            detail = "this server needs its token: Authorization: Bearer <token>"
+            return await _answer(send, 401, {"detail": detail}, [(b"www-authenticate", b"Bearer")])
+        try:
+            if path in (PREFIX, PREFIX + "/"):
+                if scope["method"] not in ("GET", "HEAD"):
+                    return await _answer(send, 405, {"detail": f"{scope['method']} is not allowed here"})
+                names = await asyncio.to_thread(self.fleet.names)
+                return await _answer(send, 200, {"homes": names})
+            if not path.startswith(PREFIX + "/"):
+                detail = f"not found: the API is {PREFIX} and {PREFIX}/{{home}}/..."
+                return await _answer(send, 404, {"detail": detail})
+            name, _, rest = path[len(PREFIX) + 1 :].partition("/")
+            name = unquote(name)
+            entry = await self._fresh(name)
+        except UnknownHomeError as e:
+            return await _answer(send, 404, {"detail": str(e)})
+        except StoreError as e:
+            return await _answer(send, 503, {"detail": f"the knowledge database cannot be used: {e}"})
+        except HomecogError as e:
+            return await _answer(send, 409, {"detail": str(e)})
+        if rest == "openapi.json":
+            if entry.schema is None:
+                entry.schema = _prefixed(entry.app.app.app.openapi(), f"{PREFIX}/{name}")
+            return await _answer(send, 200, entry.schema)
+        inner = "/api/" + rest
+        scope = {**scope, "path": inner, "raw_path": inner.encode()}
+        return await entry.app(scope, receive, send)
+
+    async def _fresh(self, name: str) -> Entry:
+        """The home's entry, loaded if need be, and up to the database's version."""
+        fleet = self.fleet
+        entry = fleet._entries.get(name)
+        if entry is None:
+            entry = await asyncio.to_thread(fleet.entry, name)
+        else:
+            with contextlib.suppress(KeyError):  # evicted by a load in another thread meanwhile
+                fleet._entries.move_to_end(name)
+        version = await self.versions.of(name)
+        if version is None or entry.version is None or version[1] != entry.version[1]:
+            # gone (the load raises, naming the homes there are), or built again, perhaps from
+            # another home file: the home, its models and its tree are read anew
+            fleet.forget(name)
+            entry = await asyncio.to_thread(fleet.entry, name)
+        elif version != entry.version:
+            await asyncio.to_thread(fleet.refresh, entry, version)
+        return entry
+
+    def _authorized(self, scope: dict[str, Any]) -> bool:
+        if self.token is None:
+            return True
+        scheme, _, given = dict(scope["headers"]).get(b"authorization", b"").partition(b" ")
+        return scheme.lower() == b"bearer" and hmac.compare_digest(given.strip(), self.token)
+
+
+def _prefixed(schema: dict[str, Any], prefix: str) -> dict[str, Any]:
+    """A home's OpenAPI schema with its paths where the fleet serves them."""
+    paths = {prefix + p[len("/api") :]: v for p, v in schema["paths"].items() if p.startswith("/api")}
+    return {**schema, "paths": paths}
+
+
+async def _answer(
+    send: Any, status: int, body: object, headers: list[tuple[bytes, bytes]] | None = None
+) -> None:
+    data = json.dumps(body).encode()
+    await send(
+        {
+            "type": "http.response.start",
+            "status": status,
+            "headers": [
+                (b"content-type", b"application/json"),
+                (b"content-length", b"%d" % len(data)),
+                *(headers or []),
+            ],
+        }
+    )
+    await send({"type": "http.response.body", "body": data})
+
+
+async def _lifespan(receive: Any, send: Any) -> None:
+    while True:
+        message = await receive()
+        if message["type"] == "lifespan.startup":
+            await send({"type": "lifespan.startup.complete"})
+        elif message["type"] == "lifespan.shutdown":
+            await send({"type": "lifespan.shutdown.complete"})
+            return

@@ -1,0 +1,166 @@
+"""Reading a home's experience log (SPEC §6): the counts of its rows, the corrections to replay
+on a new build, and the tree rebuilt from the log alone, which must answer as the stored one;
+and whether a tree in memory is stale (the home's version) and bringing it up to date.
+
+A part of :class:`~homecog.knowledge.store.Store`; every query is under the store's home.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Iterator
+from contextlib import AbstractContextManager
+from typing import TYPE_CHECKING, Any
+
+from sqlalchemy import func, select, text
+from sqlalchemy.engine import Connection, Engine
+
+from homecog.errors import StoreError
+from homecog.knowledge import sample_log
+from homecog.knowledge.database import redact
+from homecog.knowledge.ihdr import IHDRTree
+from homecog.knowledge.rows import samples_from
+from homecog.knowledge.schema import Base, ClusterRow, ExperienceRow, HomeRow, NodeRow, UserRow
+
+if TYPE_CHECKING:
+    from homecog.home.model import Home
+
+
+class StoreLog:
+    """The log's side of a store (mixed into :class:`~homecog.knowledge.store.Store`)."""
+
+    home: Home
+    url: str
+    engine: Engine
+    _build: int
+    _versions: dict[str, int]
+
+    def _tx(self) -> AbstractContextManager[Connection]:  # the store's
+        raise NotImplementedError
+
+    def home_version(self) -> tuple[int, int] | None:
+        """``(version, build)`` of the home: the version moves on every write, the build on every
+        build; ``None`` when the database has no such home. One primary-key lookup."""
+        with self._tx() as conn:
+            row = conn.execute(
+                select(HomeRow.version, HomeRow.build).where(HomeRow.name == self.home.name)
+            ).first()
+            return None if row is None else (row.version, row.build)
+
+    def refresh(self, tree: IHDRTree) -> IHDRTree:
+        """``tree`` brought up to the database: the users' layers that other processes corrected
+        since they were read, or the whole tree loaded again after another build."""
+        with self._tx() as conn:
+            build = conn.execute(select(HomeRow.build).where(HomeRow.name == self.home.name)).scalar()
+            if build == self._build:
+                rows = conn.execute(
+                    select(UserRow.name, UserRow.version).where(UserRow.home == self.home.name)
+                ).all()
+                for name, version in rows:
+                    if version != self._versions.get(name, 0):
+                        self._reload_user_if_stale(conn, tree, name, lock=False)  # type: ignore[attr-defined]
+                return tree
+        return self.load_tree()  # type: ignore[attr-defined]
+
+    def counts(self) -> dict[str, int]:
+        """Rows of the home per table: nodes, clusters (shared and per user), experiences, users."""
+        h = self.home.name
+
+        def count(table: Any, *where: Any) -> int:
+            query = select(func.count()).select_from(table).where(table.home == h, *where)
+            return conn.execute(query).scalar_one()
+
+        with self._tx() as conn:
+            return {
+                "nodes": count(NodeRow),
+                "clusters": count(ClusterRow, ClusterRow.user.is_(None)),
+                "user_clusters": count(ClusterRow, ClusterRow.user.is_not(None)),
+                "experiences": count(ExperienceRow),
+                "corrections": count(ExperienceRow, ExperienceRow.kind == "correction"),
+                "users": count(UserRow),
+            }
+
+    def experience_count(self) -> int:
+        """Experiences in the log: every sample of every build, every single sample and correction."""
+        with self._tx() as conn:
+            # single samples and corrections: one indexed count; every build's samples: the
+            # total the last build wrote beside the tree
+            others = conn.execute(
+                select(func.count())
+                .select_from(ExperienceRow)
+                .where(ExperienceRow.home == self.home.name, ExperienceRow.kind != "samples")
+            ).scalar_one()
+            return others + self._samples_logged(conn)
+
+    def _samples_logged(self, conn: Connection) -> int:
+        """Samples in the log, of every build (read from the sample batches in databases older
+        than that count)."""
+        state = conn.execute(select(HomeRow.state).where(HomeRow.name == self.home.name)).scalar_one_or_none()
+        counters = json.loads(state or "{}")
+        if "samples_logged" in counters:
+            return int(counters["samples_logged"])
+        batches = conn.execute(
+            select(ExperienceRow.payload).where(
+                ExperienceRow.home == self.home.name, ExperienceRow.kind == "samples"
+            )
+        )
+        return sum(json.loads(p).get("count", 0) for (p,) in batches)
+
+    def _corrections(self) -> list[tuple[str, str | None, dict[str, Any]]]:
+        with self._tx() as conn:
+            rows = conn.execute(
+                select(ExperienceRow.kind, ExperienceRow.user, ExperienceRow.payload)
+                .where(ExperienceRow.home == self.home.name, ExperienceRow.kind.in_(["correction", "sample"]))
+                .order_by(ExperienceRow.id)
+            )
+            return [(r.kind, r.user, json.loads(r.payload)) for r in rows]
+
+    def rebuild(self) -> IHDRTree:
+        """The tree rebuilt from the experience log alone: the last build's samples, then every
+        single sample and correction in the order they were committed."""
+        with self._tx() as conn:
+            rows = conn.execute(
+                select(
+                    ExperienceRow.id,
+                    ExperienceRow.kind,
+                    ExperienceRow.user,
+                    ExperienceRow.payload,
+                    ExperienceRow.data,
+                )
+                .where(ExperienceRow.home == self.home.name)
+                .order_by(ExperienceRow.id)
+            ).all()
+        builds = [json.loads(r.payload)["build"] for r in rows if r.kind == "samples"]
+        if not builds:
+            raise StoreError(f"--db {redact(self.url)}: the log holds no samples; run homecog build")
+        last = max(builds)
+        parts = [r for r in rows if r.kind == "samples" and json.loads(r.payload)["build"] == last]
+        parts.sort(key=lambda r: json.loads(r.payload)["part"])
+        meta = json.loads(parts[0].payload)
+        tree = IHDRTree(self.home, mode=meta["mode"])
+        if meta.get("format") == sample_log.FORMAT:
+            logged = [(json.loads(r.payload), r.data) for r in parts]
+            try:
+                for samples in sample_log.regenerate(self.home, logged):
+                    tree.learn_many(samples)
+            except ValueError as e:
+                raise StoreError(f"--db {redact(self.url)}: {e}") from None
+        else:
+            tree.learn_many(samples_from(self.home, [sample_log.unpack(r.data) for r in parts]))
+        for r in rows:
+            if r.kind in ("correction", "sample"):
+                tree.replay(r.kind, r.user, json.loads(r.payload))
+        return tree
+
+    def drop_all(self) -> None:
+        """Remove every table (tests use it to leave a server database clean)."""
+        with self.engine.begin() as conn:
+            Base.metadata.drop_all(conn)
+            conn.execute(text("DROP TABLE IF EXISTS alembic_version"))
+
+
+def stored_homes(conn: Connection) -> Iterator[tuple[str, str, bool]]:
+    """``(name, content hash, built)`` of every home of a database, by name."""
+    rows = conn.execute(select(HomeRow.name, HomeRow.content_hash, HomeRow.built_at).order_by(HomeRow.name))
+    for name, content_hash, built_at in rows:
+        yield name, content_hash, built_at is not None
