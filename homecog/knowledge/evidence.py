@@ -95,12 +95,17 @@ def round_cut(low: float, high: float) -> float:
 
     >>> round_cut(22.8, 24.1), round_cut(15.3, 15.8), round_cut(0.1234, 0.1236), round_cut(-3.2, 40)
     (23.0, 15.5, 0.1235, 0.0)
+    >>> round_cut(1e300, 1.6e308)  # huge readings: a cut still, never an error
+    8.00000005e+307
     """
-    mid = (low + high) / 2
+    mid = low / 2 + high / 2  # no overflow near the largest floats
     for digits in range(-1, 7):
         for step in (5.0, 1.0):
             size = step * 10.0**-digits
-            nearest = round(mid / size) * size
+            try:
+                nearest = round(mid / size) * size
+            except (OverflowError, ValueError):  # beyond what a float holds at this step
+                continue
             for cand in (nearest, nearest - size, nearest + size):
                 if low < cand <= high:
                     return round(cand, max(digits + 1, 0))
