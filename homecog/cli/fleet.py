@@ -8,7 +8,7 @@ from typing import Annotated
 
 import typer
 
-from homecog.cli.options import JsonOption, UsageProblemError
+from homecog.cli.options import HostOption, JsonOption, PortOption, UsageProblemError
 from homecog.cli.output import emit_json, stderr, stdout
 
 FleetDb = Annotated[
@@ -104,10 +104,8 @@ def fleet_train(
 
 def serve(
     db: FleetDb = None,
-    host: Annotated[
-        str, typer.Option(help="Address to serve on; any but 127.0.0.1 needs a token.")
-    ] = "127.0.0.1",
-    port: Annotated[int, typer.Option(min=1, max=65535, help="Port to serve on.")] = 8000,
+    host: HostOption = "127.0.0.1",
+    port: PortOption = 8000,
     token: Annotated[
         str | None,
         typer.Option(

@@ -34,6 +34,8 @@ ContextOption = Annotated[
     str, typer.Option("--context", help="name=value for every feature and device, comma-separated.")
 ]
 UserOption = Annotated[str, typer.Option("--user", help="The household member.")]
+HostOption = Annotated[str, typer.Option(help="Address to serve on; any but 127.0.0.1 needs a token.")]
+PortOption = Annotated[int, typer.Option(min=1, max=65535, help="Port to serve on.")]
 
 
 def check_writable(path: Path) -> None:

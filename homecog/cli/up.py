@@ -11,6 +11,8 @@ import typer
 from homecog.cli.options import (
     DbOption,
     HomeOption,
+    HostOption,
+    PortOption,
     UsageProblemError,
 )
 from homecog.cli.output import stdout
@@ -22,10 +24,8 @@ LOCAL_HOSTS = ("127.0.0.1", "localhost", "::1")
 def up(
     home: HomeOption = "paper",
     db: DbOption = None,
-    host: Annotated[
-        str, typer.Option(help="Address to serve on; any but 127.0.0.1 needs a token.")
-    ] = "127.0.0.1",
-    port: Annotated[int, typer.Option(min=1, max=65535, help="Port to serve on.")] = 8000,
+    host: HostOption = "127.0.0.1",
+    port: PortOption = 8000,
     token: Annotated[
         str | None,
         typer.Option(
