@@ -195,7 +195,8 @@ class ServiceLearner:
         # per key, its keys with one atom less
         self._subs = [[self._index[k[:m] + k[m + 1 :]] for m in range(len(k))] for k in self.keys]
         self._prior_rank = [(-len(prior.intersection(k)), len(set(k) - prior)) for k in self.keys]
-        self._best: int | None = None
+        self._best: int | None = None  # the best key's position, and every key's loss rounded
+        self._rounded: list[float] = []
         self._backoff: list[Key] | None = None
         self._next_cut = 4
 
@@ -285,11 +286,14 @@ class ServiceLearner:
         """The key with the least leave-one-out loss (ties: more atoms of the prior, fewer
         others, then the first)."""
         if self._best is None:
-            self._best = min(range(len(self.keys)), key=self._rank)
+            rounded = self._rounded = [round(loss, 6) for loss in self._loo]
+            least = min(rounded)
+            tied = (i for i, loss in enumerate(rounded) if loss == least)
+            self._best = min(tied, key=self._prior_rank.__getitem__)
         return self.keys[self._best]
 
     def _rank(self, i: int) -> tuple[float, tuple[int, int]]:
-        return (round(self._loo[i], 6), self._prior_rank[i])
+        return (self._rounded[i], self._prior_rank[i])
 
     def decide(
         self, readings: Sequence[float | None], codes: Sequence[int], *, shared: bool, threshold: float = 0.5

@@ -57,6 +57,13 @@ from homecog.knowledge.sample_log import SampleLog
 from homecog.knowledge.samples import SampleSet
 from homecog.knowledge.schema import ClusterRow, ExperienceRow, HomeRow, NodeRow, UserRow
 from homecog.knowledge.state import NodeState, TreeState
+from homecog.knowledge.statements import (
+    BUMP_HOME,
+    BUMP_USER,
+    LOG_CORRECTION,
+    USER_VERSION,
+    USER_VERSION_LOCKED,
+)
 from homecog.knowledge.store_log import StoreLog
 
 __all__ = ["Store", "StoreError", "default_url", "migrate", "redact"]
@@ -211,10 +218,8 @@ class Store(StoreLog):
             self._reload_user_if_stale(conn, tree, user, lock=False)
 
     def _reload_user_if_stale(self, conn: Connection, tree: IHDRTree, user: str, *, lock: bool) -> int:
-        query = select(UserRow.version).where(UserRow.home == self.home.name, UserRow.name == user)
-        if lock and conn.dialect.name != "sqlite":
-            query = query.with_for_update()
-        version = conn.execute(query).scalar_one_or_none() or 0
+        query = USER_VERSION_LOCKED if lock and conn.dialect.name != "sqlite" else USER_VERSION
+        version = conn.execute(query, {"h": self.home.name, "u": user}).scalar_one_or_none() or 0
         if version != self._versions.get(user, 0):
             rows = conn.execute(
                 select(ExperienceRow.payload)
@@ -357,27 +362,11 @@ class Store(StoreLog):
                     "added": added,
                     "rejected": rejected,
                 }
-                conn.execute(
-                    insert(ExperienceRow),
-                    [
-                        {
-                            "home": self.home.name,
-                            "kind": "correction",
-                            "user": user,
-                            "created_at": datetime.now(UTC).replace(tzinfo=None),
-                            "payload": json.dumps(payload),
-                            "data": None,
-                        }
-                    ],
-                )
-                conn.execute(
-                    update(UserRow)
-                    .where(UserRow.home == self.home.name, UserRow.name == user)
-                    .values(version=UserRow.version + 1, corrections=UserRow.corrections + 1)
-                )
-                conn.execute(  # servers holding this home's tree see it move
-                    update(HomeRow).where(HomeRow.name == self.home.name).values(version=HomeRow.version + 1)
-                )
+                keys = {"h": self.home.name, "u": user}
+                now = datetime.now(UTC).replace(tzinfo=None)
+                conn.execute(LOG_CORRECTION, {**keys, "t": now, "p": json.dumps(payload)})
+                conn.execute(BUMP_USER, keys)
+                conn.execute(BUMP_HOME, keys)  # servers holding this home's tree see it move
         except BaseException:
             self._versions.pop(user, None)  # the tree may hold what did not commit: reload next time
             tree.set_user_examples(user, [])
