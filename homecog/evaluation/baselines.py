@@ -33,6 +33,7 @@ import numpy as np
 
 from homecog.home.codec import Point, Space
 from homecog.home.model import Home
+from homecog.knowledge.threshold import OnlineThreshold
 
 #: The thresholds the frequency learner chooses among (a service is proposed above it).
 THRESHOLDS = tuple(i / 10 for i in range(10))
@@ -55,10 +56,6 @@ def frequency_keys(home: Home) -> dict[str, list[str]]:
     return {s.name: [*context, *(d for d, _ in s.sets)] for s in home.services}
 
 
-def _f1(hits: int, predicted: int, true: int) -> float:
-    return 2 * hits / (predicted + true) if predicted + true else 0.0
-
-
 class ServiceFrequency:
     """Per service, the frequency with which it was wanted in its key; a threshold chosen online.
 
@@ -73,13 +70,12 @@ class ServiceFrequency:
         self.thresholds = thresholds
         self.start = start
         self._counts: dict[str, dict[tuple[Any, ...], list[int]]] = {s: {} for s in keys}  # seen, wanted
-        self._tallies = [[0, 0, 0] for _ in thresholds]  # per threshold: hits, predicted, true
-        self._threshold = start
+        self._threshold = OnlineThreshold(thresholds, start=start)
 
     @property
     def threshold(self) -> float:
         """The threshold in use: the best on the events learned so far."""
-        return self._threshold
+        return self._threshold.value
 
     def frequency(self, service: str, x: Features) -> float | None:
         """How often ``service`` was wanted in the key of ``x`` (None: the key was never seen)."""
@@ -93,7 +89,7 @@ class ServiceFrequency:
         out = set()
         for service in self.keys:
             f = self.frequency(service, x)
-            if f is not None and f > self._threshold:
+            if f is not None and f > self._threshold.value:
                 out.add(service)
         return out
 
@@ -103,19 +99,9 @@ class ServiceFrequency:
             counts = self._counts[service].setdefault(key, [0, 0])
             wanted = service in y
             # how each threshold would have answered before this event is counted
-            f = counts[1] / counts[0] if counts[0] else None
-            for t, tally in zip(self.thresholds, self._tallies, strict=True):
-                proposed = f is not None and f > t
-                tally[0] += proposed and wanted
-                tally[1] += proposed
-                tally[2] += wanted
+            self._threshold.judge(counts[1] / counts[0] if counts[0] else None, wanted)
             counts[0] += 1
             counts[1] += wanted
-        best = max(
-            range(len(self.thresholds)),
-            key=lambda i: (_f1(*self._tallies[i]), -abs(self.thresholds[i] - self.start)),
-        )
-        self._threshold = self.thresholds[best]
 
 
 def one_hot(x: Features) -> dict[str, int]:

@@ -40,6 +40,7 @@ from homecog.home.clock import format_clock
 from homecog.home.codec import Point, Space
 from homecog.home.model import Home, format_number
 from homecog.knowledge.evidence import Decision, ServiceLearner
+from homecog.knowledge.threshold import OnlineThreshold
 
 #: keys of at most this many atoms (features and the shared answer) ...
 ORDER = 3
@@ -49,40 +50,6 @@ MAX_KEYS = 100
 CALIBRATE = 20
 #: the shares of wanted examples a user's threshold is chosen among
 THRESHOLDS = (0.1, 0.15, 0.2, 0.25, 0.3, 0.35, 0.4, 0.45, 0.5)
-
-
-class Threshold:
-    """The share of wanted examples above which a user's answers propose a service: of
-    THRESHOLDS, the one that would have given the best F1 on the user's corrections so far,
-    each example judged before it was counted (ties: the nearest to ½); ½ until CALIBRATE
-    examples were judged.
-
-    >>> t = Threshold()
-    >>> for _ in range(20):
-    ...     t.judge(0.9, True); t.judge(0.3, True); t.judge(0.3, False); t.judge(0.1, False)
-    >>> t.value
-    0.25
-    """
-
-    def __init__(self) -> None:
-        self._tallies = [[0, 0, 0] for _ in THRESHOLDS]  # hits, proposed, wanted
-        self._judged = 0
-        self.value = 0.5
-
-    def judge(self, share: float, wanted: bool) -> None:
-        for t, tally in zip(THRESHOLDS, self._tallies, strict=True):
-            proposed = share > t
-            tally[0] += proposed and wanted
-            tally[1] += proposed
-            tally[2] += wanted
-        self._judged += 1
-        if self._judged >= CALIBRATE:
-            best = max(range(len(THRESHOLDS)), key=lambda i: (_f1(*self._tallies[i]), THRESHOLDS[i]))
-            self.value = THRESHOLDS[best]
-
-
-def _f1(hits: int, proposed: int, wanted: int) -> float:
-    return 2 * hits / (proposed + wanted) if proposed + wanted else 0.0
 
 
 @dataclass(frozen=True)
@@ -134,7 +101,7 @@ class UserLayers:
         self._learners: dict[str, dict[int, ServiceLearner]] = {}
         self._made_at: dict[str, int] = {}
         # per user: the share of wanted examples above which their answers propose
-        self._threshold: dict[str, Threshold] = {}
+        self._threshold: dict[str, OnlineThreshold] = {}
         # the latest answers: (user, point, the user's examples then, shared version), the
         # shared answer and the user's answers there
         self._last: tuple[tuple[Any, ...], frozenset[int], dict[int, Decision]] | None = None
@@ -177,7 +144,9 @@ class UserLayers:
 
     def _learn(self, user: str, example: Example, ident: int) -> None:
         learners = self._learners.setdefault(user, {})
-        threshold = self._threshold.setdefault(user, Threshold())
+        threshold = self._threshold.get(user)
+        if threshold is None:  # the user's: of THRESHOLDS, the best F1 on their corrections so far
+            threshold = self._threshold[user] = OnlineThreshold(THRESHOLDS, calibrate=CALIBRATE)
         codes, readings = example.codes, example.readings
         # the answers just given at this point (a correction follows its cognition) are the
         # answers before this example; else they are asked again
