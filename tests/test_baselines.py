@@ -48,7 +48,7 @@ def test_frequency_counts_and_chooses_its_threshold_from_the_past():
     # the last event makes 0, 0.1 and 0.2 best (F1 0.6), and 0.2 is nearest the start
     assert thresholds == [0.5, 0.5, 0.5, 0.5, 0.5, 0.2]
     assert f._threshold._tallies[THRESHOLDS.index(0.2)] == [3, 4, 6]
-    assert f._tallies[THRESHOLDS.index(0.5)] == [2, 3, 6]
+    assert f._threshold._tallies[THRESHOLDS.index(0.5)] == [2, 3, 6]
     assert f.frequency("A", sofa()) == 0.75  # 3 of 4 at (sofa, off)
     assert f.frequency("B", sofa("on")) == 0.4  # 2 of 5 on the sofa, whatever the device
     assert f.frequency("A", sofa(loc="bed", dev="on")) is None
