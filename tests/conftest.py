@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import fcntl
+import os
+import shutil
 import sys
 from collections.abc import Iterator
 from pathlib import Path
@@ -11,8 +14,30 @@ from servers import fresh_database
 
 from homecog.environment.core import Core
 from homecog.home import Home, load_home, load_home_text
+from homecog.knowledge.pipeline import ensure_policy
 
 HOMES = Path(__file__).parent / "homes"
+
+
+@pytest.fixture(scope="session", autouse=True)
+def _paper_q_table_once(tmp_path_factory: pytest.TempPathFactory) -> None:
+    """The paper's Q table learned once per test session, not once per xdist worker: the first
+    worker learns it into a directory the workers share (under a lock), every worker copies it
+    into its own data directory, where ``ensure_policy`` and the commands find it cached."""
+    base = tmp_path_factory.getbasetemp()
+    shared = base.parent if os.environ.get("PYTEST_XDIST_WORKER") else base
+    before = os.environ.get("HOMECOG_DATA")
+    with open(shared / "paper-q-table.lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        os.environ["HOMECOG_DATA"] = str(shared / "shared-data")
+        try:
+            ensure_policy(load_home("paper"))
+        finally:
+            if before is None:
+                os.environ.pop("HOMECOG_DATA", None)
+            else:
+                os.environ["HOMECOG_DATA"] = before
+    shutil.copytree(shared / "shared-data" / "qtables", base / "data" / "qtables", dirs_exist_ok=True)
 
 
 @pytest.fixture(autouse=True)
