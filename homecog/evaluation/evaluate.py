@@ -25,7 +25,7 @@ from homecog.evaluation.learn import EvaluationError, learn_methods
 from homecog.evaluation.methods import METHODS, Method, TreeMethod
 from homecog.evaluation.scenarios import Scenario, random_scenarios, truth_of
 from homecog.home.codec import Space, parse_services
-from homecog.home.loader import is_compatible
+from homecog.home.content import is_compatible
 from homecog.home.model import Home
 from homecog.home.states import parse_state
 from homecog.knowledge.ihdr import IHDRTree
