@@ -14,7 +14,7 @@ from homecog.cli.options import (
 from homecog.cli.output import big_number, emit_json, stdout
 from homecog.cli.render import home_tables
 from homecog.home import Home, load_home
-from homecog.home.loader import canonical
+from homecog.home.content import canonical
 from homecog.home.model import format_number
 
 

@@ -16,7 +16,8 @@ snapshot; while it is away the robot does not act on stale states (:attr:`ready`
 switch it is asked for is logged and skipped.
 
 The client (:mod:`homecog.context.ha_client`) runs on an event loop of its own in a thread, so
-that the rest of homecog stays synchronous, as with MQTT.
+that the rest of homecog stays synchronous, as with MQTT. The values taken from the entities are
+:mod:`homecog.context.ha_readings`'s, the connection :mod:`homecog.context.ha_connection`'s.
 
 Against an instance (not run as a doctest)::
 
@@ -43,31 +44,21 @@ import concurrent.futures
 import contextlib
 import logging
 import threading
-import time
 from collections.abc import Callable, Mapping
-from datetime import datetime
 from typing import Any
 
-from homecog.context import ConnectedSource
-from homecog.context.ha_client import CONNECT_TIMEOUT, TOKEN_HELP, connect, reason, websocket_url
+from homecog.context.ha_client import CONNECT_TIMEOUT, TOKEN_HELP, websocket_url
+from homecog.context.ha_connection import MAX_RECONNECT_DELAY, MIN_RECONNECT_DELAY, HomeAssistantConnection
 from homecog.errors import ContextError, HomeAssistantError
-from homecog.home.clock import format_clock
-from homecog.home.home_assistant import (
-    DeviceEntity,
-    FeatureEntity,
-    HomeAssistantMap,
-    feature_value,
-    unknown_entities,
-)
+from homecog.home.home_assistant import DeviceEntity, FeatureEntity, HomeAssistantMap
 from homecog.home.model import Home
 
 log = logging.getLogger(__name__)
 
-MIN_RECONNECT_DELAY = 0.25  # seconds; doubled after each failed attempt ...
-MAX_RECONNECT_DELAY = 2.0  # ... up to this, so the robot is back within ~2 s of the instance
+__all__ = ["MAX_RECONNECT_DELAY", "MIN_RECONNECT_DELAY", "HomeAssistantSource"]
 
 
-class HomeAssistantSource(ConnectedSource):
+class HomeAssistantSource(HomeAssistantConnection):
     """The context of a home, followed in a Home Assistant instance; a :class:`ContextSource`.
 
     Parameters
@@ -194,31 +185,6 @@ class HomeAssistantSource(ConnectedSource):
         """Connected, and every feature and device has a value: the robot may act."""
         return self.connected and not self.missing()
 
-    def missing(self) -> list[str]:
-        """The features and devices without a value yet, in the home's order."""
-        with self._lock:
-            return [n for n in self._names if n not in self._values]
-
-    def snapshot(self) -> dict[str, str]:
-        """The latest value of every feature and device (a clock feature without an entity
-        reads the local clock); :class:`ContextError` naming those without a value yet."""
-        with self._lock:
-            missing = [n for n in self._names if n not in self._values]
-            if missing:
-                entities = {
-                    m.feature if isinstance(m, FeatureEntity) else m.device: m.entity
-                    for ms in self._readers.values()
-                    for m in ms
-                }
-                raise ContextError(
-                    "Home Assistant: no state yet for " + ", ".join(f"{n} ({entities[n]})" for n in missing)
-                )
-            values = dict(self._values)
-        now = datetime.now()
-        clock = format_clock(now.hour + now.minute / 60)
-        values.update(dict.fromkeys(self._clocks, clock))
-        return {n: values[n] for n in self.home.feature_names + self.home.device_names}
-
     def switch(self, device: str, on: bool) -> concurrent.futures.Future[bool] | None:
         """The robot's IoT command as a service call (``light.turn_on`` on the device's entity),
         sent without waiting; the future says whether Home Assistant carried it out. While the
@@ -236,172 +202,3 @@ class HomeAssistantSource(ConnectedSource):
             return None
         log.info("Home Assistant: %s.%s on %s", domain, service, mapping.entity)
         return asyncio.run_coroutine_threadsafe(self._call(domain, service, mapping.entity), loop)
-
-    # -- the client's thread ---------------------------------------------------------------------
-    def _run(self) -> None:
-        try:
-            asyncio.run(self._main())
-        except BaseException as e:  # never leave start() waiting
-            if not self._first.done():
-                self._first.set_exception(e)
-
-    async def _main(self) -> None:
-        self._loop = asyncio.get_running_loop()
-        self._task = asyncio.current_task()
-        delay, logged = MIN_RECONNECT_DELAY, None
-        try:
-            while True:
-                first = not self._first.done()  # until start() has its answer
-                connected_before = self.connected_since
-                try:
-                    await self._session(first)
-                    self.last_error = "connection closed"
-                    log.warning("Home Assistant at %s closed the connection; reconnecting", self.ws_url)
-                except Exception as e:  # unreachable, refused, dropped mid-session, a failed command
-                    error = e if isinstance(e, HomeAssistantError) else None
-                    self.last_error = str(error) if error else f"Home Assistant at {self.ws_url}: {reason(e)}"
-                    if not self._first.done():  # start() fails with it
-                        self._first.set_exception(error or HomeAssistantError(self.last_error))
-                        return
-                    # an outage logs once, not every attempt; the HMI shows it as long as it lasts
-                    level = logging.DEBUG if self.last_error == logged else logging.WARNING
-                    log.log(level, "%s; trying again in %.2g s", self.last_error, delay)
-                    logged = self.last_error
-                if self.connected_since != connected_before:
-                    delay, logged = MIN_RECONNECT_DELAY, None  # it got through: the backoff starts afresh
-                await asyncio.sleep(delay)
-                delay = min(delay * 2, MAX_RECONNECT_DELAY)
-        except asyncio.CancelledError:
-            pass
-
-    async def _session(self, first: bool) -> None:
-        """One connection: authenticate, subscribe, take the snapshot, then listen until it closes."""
-        client = await connect(self.ws_url, self.token, self.connect_timeout)
-        listener = asyncio.create_task(client.start_listening())
-        try:
-
-            async def command(name: str, **kwargs: Any) -> Any:
-                return await asyncio.wait_for(client.send_command(name, **kwargs), self.connect_timeout)
-
-            self.version = client.version
-            self.user_id = (await command("auth/current_user")).get("id")
-            config = await command("get_config")
-            # subscribe before the snapshot: a change in between arrives as an event, and the
-            # states' last_updated keep an older snapshot from overwriting a newer event
-            await asyncio.wait_for(
-                client.subscribe_events(self._on_event, "state_changed"), self.connect_timeout
-            )
-            states = await command("get_states")
-            problems = unknown_entities(self.mapping, (s["entity_id"] for s in states))
-            if problems and first and config.get("state") == "RUNNING":
-                raise HomeAssistantError(f"Home Assistant at {self.url}: {'; '.join(problems)}")
-            for problem in problems:  # while it starts, entities come later, as events
-                log.warning("Home Assistant: %s", problem)
-            for state in states:
-                if state["entity_id"] in self._readers:
-                    self._take(state, time.time())
-            self._client = client
-            self.connected_since = time.time()
-            if not first:
-                self.reconnects += 1
-            self._connected.set()
-            # back after a loss is worth the same level as the loss was
-            log.log(
-                logging.INFO if first else logging.WARNING,
-                "Home Assistant %s at %s: following %d entities",
-                self.version,
-                self.url,
-                len(self._readers),
-            )
-            if first:
-                self._first.set_result(None)
-            self._notify()
-            await listener  # until the connection closes; its error, if any, is raised here
-        finally:
-            self._connected.clear()
-            self._client = None
-            await client.disconnect()
-            if not listener.done():
-                listener.cancel()
-            with contextlib.suppress(BaseException):
-                await listener
-
-    async def _call(self, domain: str, service: str, entity: str) -> bool:
-        client = self._client
-        if client is None:
-            self.skipped_switches += 1
-            log.warning("Home Assistant not connected: skipped %s.%s on %s", domain, service, entity)
-            return False
-        try:
-            await asyncio.wait_for(
-                client.call_service(domain, service, target={"entity_id": entity}), self.connect_timeout
-            )
-            return True
-        except Exception as e:
-            self.skipped_switches += 1
-            log.warning("Home Assistant: %s.%s on %s failed: %s", domain, service, entity, reason(e))
-            return False
-
-    def _on_event(self, event: Mapping[str, Any]) -> None:
-        data = event.get("data") or {}
-        state = data.get("new_state")
-        if state is not None and data.get("entity_id") in self._readers:
-            try:
-                self._take(state, time.time())
-            except Exception:  # never let one odd event stop the client
-                log.exception("Home Assistant: could not read %r", state)
-                return
-            self._notify()
-
-    def _take(self, state: Mapping[str, Any], received: float) -> None:
-        """Read one entity's state into the features and devices it holds."""
-        entity = state["entity_id"]
-        updated = str(state.get("last_updated", ""))
-        if self.on_state is not None:
-            try:
-                self.on_state(entity, state, received)
-            except Exception:
-                log.exception("Home Assistant on_state callback failed")
-        accepted: dict[str, str] = {}
-        for m in self._readers[entity]:
-            try:
-                if isinstance(m, FeatureEntity):
-                    raw = (
-                        state.get("state")
-                        if m.attribute is None
-                        else (state.get("attributes") or {}).get(m.attribute)
-                    )
-                    name, value = m.feature, feature_value(self.home.feature(m.feature), m, raw)
-                else:
-                    name, value = m.device, ("on" if m.state(str(state.get("state"))) else "off")
-            except ContextError as e:
-                self._reject(m.feature if isinstance(m, FeatureEntity) else m.device, str(e))
-                continue
-            accepted[name] = value
-            self._said.pop(name, None)
-        with self._changed:
-            if updated and updated < self._updated.get(entity, ""):
-                return  # older than what was taken: an event overtaken by the snapshot
-            self._updated[entity] = updated
-            self._dirty |= any(self._values.get(n) != v for n, v in accepted.items())
-            self._values.update(accepted)
-            self._changed.notify_all()
-
-    def _notify(self) -> None:
-        with self._lock:
-            if not self._dirty or any(n not in self._values for n in self._names):
-                return
-            self._dirty = False
-        if self.on_change is not None:
-            try:
-                self.on_change(self.snapshot())
-            except Exception:
-                log.exception("Home Assistant on_change callback failed")
-
-    def _reject(self, name: str, why: str) -> None:
-        with self._lock:
-            self.rejected += 1
-            repeated = self._said.get(name) == why
-            self._said[name] = why
-        if not repeated:
-            log.warning("Home Assistant: skipped %s", why)

@@ -7,8 +7,9 @@ from __future__ import annotations
 
 from gymnasium.envs.registration import register, registry
 
-from homecog.environment.core import Core, Tables, build_tables
+from homecog.environment.core import Core
 from homecog.environment.env import SmartHomeEnv
+from homecog.environment.tables import Tables, build_tables
 
 ENV_ID = "homecog/SmartHome-v0"
 DEFAULT_MAX_STEPS = 30

@@ -18,7 +18,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from homecog.environment.core import Core, optimal_start_states, solvable_start_states
+from homecog.environment.core import Core
+from homecog.environment.reachability import optimal_start_states, solvable_start_states
 from homecog.home.groups import Group, device_groups, project
 from homecog.home.model import Home
 

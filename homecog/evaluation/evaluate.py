@@ -11,7 +11,6 @@ correction and after every block of them.
 
 from __future__ import annotations
 
-import csv
 import tempfile
 import time
 from collections.abc import Callable, Sequence
@@ -19,15 +18,13 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from homecog.errors import ContextError
 from homecog.evaluation import metrics
 from homecog.evaluation.learn import EvaluationError, learn_methods
 from homecog.evaluation.methods import METHODS, Method, TreeMethod
-from homecog.evaluation.scenarios import Scenario, random_scenarios, truth_of
-from homecog.home.codec import Space, parse_services
-from homecog.home.loader import is_compatible
+from homecog.evaluation.scenarios import random_scenarios
+from homecog.home.content import is_compatible
 from homecog.home.model import Home
-from homecog.home.states import parse_state
+from homecog.home.scenario_file import Scenario, load_scenarios
 from homecog.knowledge.ihdr import IHDRTree
 from homecog.knowledge.pipeline import ensure_policy
 from homecog.knowledge.sample_log import SampleLog
@@ -44,80 +41,6 @@ def check_truth(home: Home, truth: Home) -> None:
         raise EvaluationError(
             f"--truth {truth.source}: not compatible with home '{home.name}': {'; '.join(problems)}"
         )
-
-
-def load_scenarios(
-    path: Path, home: Home, truth: Home, *, events: bool = False, corrections: bool = False
-) -> list[Scenario]:
-    """Scenarios (or events) from a CSV file (SPEC §9); errors name the file, line and column.
-
-    ``corrections``: events to learn, which must say the services wanted and may name the
-    household member of each row in a ``user`` column.
-    """
-    space = Space(home)
-    needed = list(space.names)
-    try:
-        handle = path.open(newline="", encoding="utf-8")
-    except OSError as e:
-        raise EvaluationError(f"{path}: cannot read: {e.strerror}") from None
-    out = []
-    with handle:
-        reader = csv.DictReader(handle)
-        header = reader.fieldnames or []
-        if not header:
-            raise EvaluationError(f"{path}: empty file; expected a header with {', '.join(needed)}")
-        required = [*needed, "timestamp"] if events or corrections else needed
-        missing = [c for c in [*required, *(["services"] if corrections else [])] if c not in header]
-        if missing:
-            raise EvaluationError(f"{path}: line 1: missing column(s) {', '.join(missing)}")
-        if (events or corrections) and header[0] != "timestamp":
-            raise EvaluationError(f"{path}: line 1: the first column must be timestamp")
-        extra = ("services", "timestamp", *(["user"] if corrections else []))
-        unknown = [c for c in header if c not in needed and c not in extra]
-        if unknown:
-            raise EvaluationError(f"{path}: line 1: unknown column(s) {', '.join(unknown)}")
-        for line, row in enumerate(reader, start=2):
-            if None in row or any(row.get(c) is None for c in needed):
-                raise EvaluationError(f"{path}: line {line}: expected {len(header)} fields")
-            for j, name in enumerate(needed):
-                value = row[name].strip()
-                try:
-                    if j < space.n_features:
-                        home.features[j].discretize(value)
-                    else:
-                        parse_state(value, name)
-                except ContextError as e:
-                    raise EvaluationError(f"{path}: line {line}, column {name}: {e}") from None
-            if events or corrections:
-                _check_timestamp(path, line, row["timestamp"])
-            user = (row.get("user") or "").strip() or None
-            if user is not None and len(user) > 200:
-                raise EvaluationError(f"{path}: line {line}, column user: longer than 200 characters")
-            context = {name: row[name].strip() for name in needed}
-            point = space.point(context)
-            if row.get("services") is not None:
-                try:
-                    wanted = parse_services(row["services"].replace(";", ","), truth)
-                except ContextError as e:
-                    raise EvaluationError(f"{path}: line {line}, column services: {e}") from None
-                truth_set, ambiguous = frozenset(wanted), ()
-            else:
-                truth_set, ambiguous = truth_of(truth, point)
-            out.append(Scenario(context=context, point=point, truth=truth_set, choices=ambiguous, user=user))
-    if not out:
-        raise EvaluationError(f"{path}: no rows after the header")
-    return out
-
-
-def _check_timestamp(path: Path, line: int, value: str) -> None:
-    from datetime import datetime
-
-    try:
-        datetime.fromisoformat(value.strip())
-    except ValueError:
-        raise EvaluationError(
-            f"{path}: line {line}, column timestamp: {value!r} is not an ISO 8601 time"
-        ) from None
 
 
 @dataclass

@@ -17,12 +17,11 @@ from pathlib import Path
 from typing import Any
 
 from homecog.evaluation.baselines import BASELINES, OnlineMethod
-from homecog.evaluation.evaluate import load_scenarios
 from homecog.evaluation.learn import Learned, learn_methods
 from homecog.evaluation.methods import METHODS, HoeffdingMethod, TreeMethod
 from homecog.evaluation.metrics import prf
-from homecog.evaluation.scenarios import Scenario
 from homecog.home.model import Home
+from homecog.home.scenario_file import Scenario, load_scenarios
 from homecog.knowledge.pipeline import ensure_policy
 from homecog.learning.size import check_size
 

@@ -19,8 +19,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from homecog.errors import EvaluationError
 from homecog.home.codec import Point
 from homecog.home.model import Home
+from homecog.home.scenario_file import load_scenarios
 from homecog.knowledge.ihdr import IHDRTree
 
 #: Corrections to a transaction.
@@ -64,9 +66,6 @@ class EventsLearned:
 
 def read_corrections(path: Path, home: Home, user: str) -> list[EventCorrection]:
     """Every row of an event file as a correction, all checked before any is learned."""
-    from homecog.errors import EvaluationError
-    from homecog.evaluation.evaluate import load_scenarios
-
     if not user or len(user) > 200:
         raise EvaluationError("--user must be 1 to 200 characters")
     order = {name: a for a, name in enumerate(home.service_names)}

@@ -50,7 +50,9 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
-from homecog.environment.core import Core, Tables, apply, argmax_row, distance
+from homecog.environment.core import Core
+from homecog.environment.kernels import apply, argmax_row, distance
+from homecog.environment.tables import Tables
 from homecog.home.codec import Point, Space, finite_span
 from homecog.home.groups import project
 from homecog.home.model import Home

@@ -32,7 +32,8 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
-from homecog.environment.core import Core, greedy_outcomes, optimal_start_states
+from homecog.environment.core import Core
+from homecog.environment.reachability import greedy_outcomes, optimal_start_states
 from homecog.home.groups import Group, device_groups, project
 from homecog.home.model import Home
 from homecog.learning.policy import Policy, round_q

@@ -23,7 +23,8 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from homecog.environment.core import Core, argmax_row
+from homecog.environment.core import Core
+from homecog.environment.kernels import argmax_row
 from homecog.home.encoding import context_index
 from homecog.home.groups import project
 from homecog.home.model import Home

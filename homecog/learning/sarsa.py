@@ -30,17 +30,10 @@ from dataclasses import asdict, dataclass, field
 import numba
 import numpy as np
 
-from homecog.environment.core import (
-    Core,
-    Tables,
-    apply,
-    argmax_row,
-    distance,
-    greedy_outcomes,
-    is_prohibited,
-    popcount,
-    reward,
-)
+from homecog.environment.core import Core
+from homecog.environment.kernels import apply, argmax_row, distance, is_prohibited, popcount, reward
+from homecog.environment.reachability import greedy_outcomes
+from homecog.environment.tables import Tables
 from homecog.home.model import Home
 from homecog.learning.qtable import QTable
 

@@ -58,7 +58,7 @@ def exact_states(home: Home, group: Group) -> int:
         return base
     import numpy as np
 
-    from homecog.environment.core import _condition_contexts
+    from homecog.environment.tables import condition_contexts
 
     radix = [f.radix for f in home.features]
     codes = np.stack(np.unravel_index(np.arange(home.context_count), radix), axis=1)
@@ -66,7 +66,7 @@ def exact_states(home: Home, group: Group) -> int:
     for a in need:
         needed = np.zeros(home.context_count, dtype=bool)
         for cond in home.needs[a]:
-            needed |= _condition_contexts(codes, cond)
+            needed |= condition_contexts(codes, cond)
         count += needed
     return int((np.int64(1) << count).sum()) << len(group.devices)
 

@@ -1,0 +1,117 @@
+"""An MQTT broker as homecog reaches it: its address from a URL, the topics of a home on it, and
+a paho client connected to it (with its network thread, which reconnects by itself).
+
+>>> from homecog.home import load_home
+>>> home = load_home("paper")
+>>> context_topic(home), command_topic(home, "lamp")
+('homecog/paper/context', 'homecog/paper/command/lamp')
+"""
+
+from __future__ import annotations
+
+import ssl
+import threading
+import uuid
+from dataclasses import dataclass
+from urllib.parse import unquote, urlsplit
+
+import paho.mqtt.client as mqtt
+from paho.mqtt.enums import CallbackAPIVersion
+
+from homecog.errors import MqttError
+from homecog.home.model import Home
+
+DEFAULT_PREFIX = "homecog"
+CONNECT_TIMEOUT = 5.0  # seconds to wait for the broker at start
+MIN_RECONNECT_DELAY = 1  # seconds; paho doubles it after each failed attempt
+MAX_RECONNECT_DELAY = 8
+
+
+@dataclass(frozen=True)
+class BrokerAddress:
+    """Where a broker is, from a URL such as ``mqtt://user:password@host:1883``."""
+
+    host: str
+    port: int
+    tls: bool = False
+    username: str | None = None
+    password: str | None = None
+
+
+def parse_url(url: str) -> BrokerAddress:
+    """A broker URL (``mqtt://`` or ``mqtts://`` for TLS) as a :class:`BrokerAddress`.
+
+    >>> parse_url("mqtt://127.0.0.1")
+    BrokerAddress(host='127.0.0.1', port=1883, tls=False, username=None, password=None)
+    >>> parse_url("http://x")
+    Traceback (most recent call last):
+    ...
+    homecog.errors.MqttError: MQTT URL 'http://x': unknown scheme 'http'; expected mqtt:// or mqtts://
+    """
+    try:
+        parts = urlsplit(str(url).strip())
+        port = parts.port
+    except ValueError as e:
+        raise MqttError(f"MQTT URL {url!r}: {e}") from None
+    scheme = parts.scheme.lower()
+    if scheme not in ("mqtt", "mqtts"):
+        raise MqttError(
+            f"MQTT URL {url!r}: unknown scheme {parts.scheme!r}; expected mqtt:// or mqtts://"
+            if scheme
+            else f"MQTT URL {url!r}: expected e.g. mqtt://127.0.0.1:1883"
+        )
+    if not parts.hostname:
+        raise MqttError(f"MQTT URL {url!r}: no host; expected e.g. mqtt://127.0.0.1:1883")
+    if parts.path not in ("", "/") or parts.query or parts.fragment:
+        raise MqttError(f"MQTT URL {url!r}: unexpected path or query; expected mqtt://host:port")
+    tls = scheme == "mqtts"
+    return BrokerAddress(
+        host=parts.hostname,
+        port=port or (8883 if tls else 1883),
+        tls=tls,
+        username=unquote(parts.username) if parts.username is not None else None,
+        password=unquote(parts.password) if parts.password is not None else None,
+    )
+
+
+def state_topic(home: Home, name: str, *, prefix: str = DEFAULT_PREFIX) -> str:
+    """The retained topic that holds a feature's or device's value."""
+    return f"{prefix}/{home.name}/state/{name}"
+
+
+def command_topic(home: Home, device: str, *, prefix: str = DEFAULT_PREFIX) -> str:
+    """The topic the robot's switch commands for ``device`` go to."""
+    return f"{prefix}/{home.name}/command/{device}"
+
+
+def context_topic(home: Home, *, prefix: str = DEFAULT_PREFIX) -> str:
+    """The topic for several values at once, as a JSON object."""
+    return f"{prefix}/{home.name}/context"
+
+
+def make_client(address: BrokerAddress, client_id: str | None) -> mqtt.Client:
+    """A paho client for the broker (credentials, TLS, the reconnect delays), not connected."""
+    client = mqtt.Client(
+        CallbackAPIVersion.VERSION2, client_id=client_id or f"homecog-{uuid.uuid4().hex[:12]}"
+    )
+    if address.username is not None:
+        client.username_pw_set(address.username, address.password)
+    if address.tls:
+        client.tls_set(cert_reqs=ssl.CERT_REQUIRED)
+    client.reconnect_delay_set(min_delay=MIN_RECONNECT_DELAY, max_delay=MAX_RECONNECT_DELAY)
+    return client
+
+
+def connect(client: mqtt.Client, address: BrokerAddress, connected: threading.Event, timeout: float) -> None:
+    """Connect and start the network thread (which reconnects by itself), or raise MqttError."""
+    where = f"{address.host}:{address.port}"
+    client.connect_timeout = timeout
+    try:
+        client.connect(address.host, address.port, keepalive=30)
+    except (OSError, ValueError) as e:
+        raise MqttError(f"MQTT broker {where} cannot be reached: {e}") from None
+    client.loop_start()
+    if not connected.wait(timeout):
+        client.loop_stop()
+        client.disconnect()
+        raise MqttError(f"MQTT broker {where} did not accept the connection within {timeout:g} s")

@@ -1,0 +1,154 @@
+"""A home's context published to an MQTT broker as a real home would (:class:`MqttPublisher`,
+retained state topics), the robot's commands from it handed on; and one context published once
+(:func:`publish_context`).
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+import time
+from collections.abc import Callable, Mapping
+from typing import Any
+
+import paho.mqtt.client as mqtt
+
+from homecog.context.mqtt_broker import (
+    CONNECT_TIMEOUT,
+    DEFAULT_PREFIX,
+    command_topic,
+    connect,
+    make_client,
+    parse_url,
+    state_topic,
+)
+from homecog.errors import ContextError
+from homecog.home.codec import normalize
+from homecog.home.model import Home
+from homecog.home.states import parse_state
+
+log = logging.getLogger("homecog.context.mqtt")  # one logger for MQTT, named as before the split
+
+
+class MqttPublisher:
+    """Publishes a home's context to a broker (retained state topics), as a real home would;
+    the simulated home uses it. Commands the robot publishes are handed to ``on_command``.
+
+    Against a broker (not run as a doctest)::
+
+        sim = SimulatedHome(load_home("paper"))
+        pub = MqttPublisher(sim.home, "mqtt://127.0.0.1:1883", on_command=sim.switch).start()
+        pub.publish(sim.snapshot())     # only values that changed since the last call go out
+        pub.stop()
+    """
+
+    def __init__(
+        self,
+        home: Home,
+        url: str,
+        *,
+        prefix: str = DEFAULT_PREFIX,
+        client_id: str | None = None,
+        on_command: Callable[[str, bool], None] | None = None,
+        connect_timeout: float = CONNECT_TIMEOUT,
+    ) -> None:
+        self.home = home
+        self.url = url
+        self.prefix = prefix
+        self.client_id = client_id
+        self.on_command = on_command
+        self.connect_timeout = connect_timeout
+        self.address = parse_url(url)
+        self._published: dict[str, str] = {}
+        self._pending: list[mqtt.MQTTMessageInfo] = []
+        self._lock = threading.Lock()  # publish is called from the simulation and paho threads
+        self._connected = threading.Event()
+        self._client: mqtt.Client | None = None
+
+    def start(self) -> MqttPublisher:
+        """Connect; raises :class:`MqttError` when the broker cannot be reached."""
+        if self._client is None:
+            client = make_client(self.address, self.client_id)
+            client.on_connect = self._on_connect
+            client.on_disconnect = lambda *a: self._connected.clear()
+            client.on_message = self._on_message
+            client.on_subscribe = lambda *a: self._connected.set()
+            connect(client, self.address, self._connected, self.connect_timeout)
+            self._client = client
+        return self
+
+    def flush(self, timeout: float = CONNECT_TIMEOUT) -> bool:
+        """Wait (at most ``timeout`` s) until the broker has every published value."""
+        deadline = time.monotonic() + timeout
+        while self._pending:
+            left = deadline - time.monotonic()
+            if left <= 0:
+                return False
+            try:
+                self._pending[0].wait_for_publish(left)
+            except (RuntimeError, ValueError):  # not queued: the broker is away; it goes out later
+                return False
+            if not self._pending[0].is_published():
+                return False
+            self._pending.pop(0)
+        return True
+
+    def stop(self) -> None:
+        """Send what is still queued, then disconnect (retained states stay on the broker)."""
+        if self._client is not None and self._connected.is_set():
+            self.flush()
+        client, self._client = self._client, None
+        if client is not None:
+            client.disconnect()
+            client.loop_stop()
+
+    def __enter__(self) -> MqttPublisher:
+        return self.start()
+
+    def __exit__(self, *exc: object) -> None:
+        self.stop()
+
+    def publish(self, snapshot: Mapping[str, object], *, everything: bool = False) -> int:
+        """Publish the values of ``snapshot`` that changed since the last call (all of them with
+        ``everything``) to their retained state topics; returns how many went out."""
+        if self._client is None:
+            raise ContextError("MQTT publisher not started; call start() first")
+        sent = 0
+        with self._lock:
+            self._pending = [m for m in self._pending if not m.is_published()]
+            for name, value in snapshot.items():
+                text = normalize(self.home, name, value)
+                if everything or self._published.get(name) != text:
+                    topic = state_topic(self.home, name, prefix=self.prefix)
+                    self._pending.append(self._client.publish(topic, text, qos=1, retain=True))
+                    self._published[name] = text
+                    sent += 1
+        return sent
+
+    def _on_connect(self, client: mqtt.Client, userdata: Any, flags: Any, reason: Any, props: Any) -> None:
+        if reason.is_failure:
+            log.warning("MQTT broker %s refused the connection: %s", self.address.host, reason)
+            return
+        if self.on_command is None:
+            self._connected.set()
+        else:  # connected once subscribed to the commands (see _on_subscribe)
+            client.subscribe(command_topic(self.home, "+", prefix=self.prefix), qos=1)
+
+    def _on_message(self, client: mqtt.Client, userdata: Any, message: mqtt.MQTTMessage) -> None:
+        device = message.topic.rsplit("/", 1)[1]
+        try:
+            on = parse_state(message.payload.decode("utf-8", "replace"), device)
+            if device not in self.home.device_names:
+                raise ContextError(f"unknown device {device!r}")
+            if self.on_command is not None:
+                self.on_command(device, on)
+        except Exception as e:
+            log.warning("MQTT command on %s ignored: %s", message.topic, e)
+
+
+def publish_context(
+    url: str, home: Home, snapshot: Mapping[str, object], *, prefix: str = DEFAULT_PREFIX
+) -> None:
+    """Publish a whole context once (retained state topics) and disconnect."""
+    with MqttPublisher(home, url, prefix=prefix) as publisher:
+        publisher.publish(snapshot, everything=True)

@@ -1,0 +1,218 @@
+"""The context of a home followed on an MQTT broker (:class:`MqttSource`), and the robot's
+switches published to it as commands.
+
+The topic layout is :mod:`homecog.context.mqtt`'s. A value that does not fit the home is ignored
+with a logged warning and counted; a broker that goes away is reconnected to and the topics are
+subscribed to again.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import threading
+from collections.abc import Callable, Mapping
+from typing import Any
+
+import paho.mqtt.client as mqtt
+
+from homecog.context import ConnectedSource
+from homecog.context.mqtt_broker import (
+    CONNECT_TIMEOUT,
+    DEFAULT_PREFIX,
+    command_topic,
+    connect,
+    make_client,
+    parse_url,
+)
+from homecog.errors import ContextError
+from homecog.home.codec import normalize
+from homecog.home.model import Home
+
+log = logging.getLogger("homecog.context.mqtt")  # one logger for MQTT, named as before the split
+
+
+class MqttSource(ConnectedSource):
+    """The context of a home, followed on an MQTT broker; a :class:`ContextSource`.
+
+    Parameters
+    ----------
+    home
+        The home whose features and devices the state topics carry.
+    url
+        The broker, ``mqtt://[user:password@]host[:port]`` (``mqtts://`` for TLS).
+    prefix
+        The first level of every topic.
+    client_id
+        The MQTT client id; a random one by default.
+    on_change
+        Called (on the network thread) with the new snapshot whenever a value changes once
+        every feature and device has been received. Its errors are logged, never raised.
+    connect_timeout
+        Seconds :meth:`start` waits for the broker.
+    """
+
+    def __init__(
+        self,
+        home: Home,
+        url: str,
+        *,
+        prefix: str = DEFAULT_PREFIX,
+        client_id: str | None = None,
+        on_change: Callable[[dict[str, str]], None] | None = None,
+        connect_timeout: float = CONNECT_TIMEOUT,
+    ) -> None:
+        self.home = home
+        self.url = url
+        self.prefix = prefix
+        self.client_id = client_id
+        self.on_change = on_change
+        self.connect_timeout = connect_timeout
+        self.address = parse_url(url)  # a bad URL fails here, before anything starts
+        self.rejected = 0
+        self._names = home.feature_names + home.device_names
+        self._values: dict[str, str] = {}
+        self._lock = threading.Lock()
+        self._changed = threading.Condition(self._lock)
+        self._connected = threading.Event()
+        self._client: mqtt.Client | None = None
+        self._base = f"{prefix}/{home.name}"
+
+    # -- lifecycle -------------------------------------------------------------------
+    def start(self) -> MqttSource:
+        """Connect, subscribe and follow the state topics; raises :class:`MqttError` when the
+        broker cannot be reached within ``connect_timeout`` seconds."""
+        if self._client is not None:
+            return self
+        client = make_client(self.address, self.client_id)
+        client.on_connect = self._on_connect
+        client.on_disconnect = self._on_disconnect
+        client.on_subscribe = self._on_subscribe
+        client.on_message = self._on_message
+        connect(client, self.address, self._connected, self.connect_timeout)
+        self._client = client
+        return self
+
+    def stop(self) -> None:
+        """Disconnect and stop the network thread."""
+        client, self._client = self._client, None
+        if client is not None:
+            client.disconnect()
+            client.loop_stop()
+            self._connected.clear()
+
+    # -- the context -------------------------------------------------------------------
+    @property
+    def ready(self) -> bool:
+        """Whether every feature and device has been received."""
+        return not self.missing()
+
+    def missing(self) -> list[str]:
+        """The features and devices not received yet, in the home's order."""
+        with self._lock:
+            return [n for n in self._names if n not in self._values]
+
+    def snapshot(self) -> dict[str, str]:
+        """The latest value of every feature and device; :class:`ContextError` naming those not
+        received yet."""
+        with self._lock:
+            missing = [n for n in self._names if n not in self._values]
+            if missing:
+                raise ContextError(
+                    f"MQTT: no state received yet for {', '.join(missing)} "
+                    f"(topics {self._base}/state/<name> on {self.address.host}:{self.address.port})"
+                )
+            return {n: self._values[n] for n in self._names}
+
+    def switch(self, device: str, on: bool) -> None:
+        """The robot's IoT command: publish ``on``/``off`` to the device's command topic (QoS 1)."""
+        if device not in self.home.device_names:
+            raise ContextError(
+                f"unknown device {device!r}; expected one of {', '.join(self.home.device_names)}"
+            )
+        if self._client is None:
+            raise ContextError("MQTT source not started; call start() first")
+        payload = "on" if on else "off"
+        log.info("MQTT command %s -> %s", device, payload)
+        # paho queues the message while the broker is away and sends it after reconnecting
+        self._client.publish(command_topic(self.home, device, prefix=self.prefix), payload, qos=1)
+
+    # -- network thread callbacks ---------------------------------------------------------
+    def _on_connect(self, client: mqtt.Client, userdata: Any, flags: Any, reason: Any, props: Any) -> None:
+        if reason.is_failure:
+            log.warning("MQTT broker %s refused the connection: %s", self.address.host, reason)
+            return
+        # subscribing here renews the subscriptions after every reconnect
+        client.subscribe([(f"{self._base}/state/+", 1), (f"{self._base}/context", 1)])
+        log.info("MQTT connected to %s:%d, following %s/", self.address.host, self.address.port, self._base)
+
+    def _on_subscribe(self, client: mqtt.Client, userdata: Any, mid: int, reasons: Any, props: Any) -> None:
+        # connected once subscribed: nothing published after start() returns can be missed
+        if any(r.is_failure for r in reasons):
+            log.warning(
+                "MQTT broker %s refused the subscription to %s/: %s", self.address.host, self._base, reasons
+            )
+        self._connected.set()
+
+    def _on_disconnect(self, client: mqtt.Client, userdata: Any, flags: Any, reason: Any, props: Any) -> None:
+        self._connected.clear()
+        if self._client is not None:
+            log.warning(
+                "MQTT broker %s:%d lost (%s); reconnecting", self.address.host, self.address.port, reason
+            )
+
+    def _on_message(self, client: mqtt.Client, userdata: Any, message: mqtt.MQTTMessage) -> None:
+        try:
+            self._receive(message.topic, message.payload)
+        except Exception:  # never let a bad message stop the network thread
+            log.exception("MQTT message on %s could not be handled", message.topic)
+
+    def _receive(self, topic: str, payload: bytes) -> None:
+        if topic == f"{self._base}/context":
+            try:
+                values = json.loads(payload.decode("utf-8"))
+                if not isinstance(values, dict):
+                    raise ValueError("not a JSON object")
+            except (UnicodeDecodeError, ValueError) as e:
+                self._reject(topic, payload, str(e))
+                return
+            self.update(values, topic=topic)
+        elif topic.startswith(f"{self._base}/state/"):
+            if not payload:
+                return  # a retained value being cleared
+            try:
+                text = payload.decode("utf-8")
+            except UnicodeDecodeError as e:
+                self._reject(topic, payload, str(e))
+                return
+            self.update({topic.rsplit("/", 1)[1]: text.strip()}, topic=topic)
+
+    def update(self, values: Mapping[str, object], *, topic: str = "(local)") -> bool:
+        """Take values as if received; invalid ones are ignored and counted. Returns whether
+        anything changed."""
+        accepted: dict[str, str] = {}
+        for name, value in values.items():
+            try:
+                accepted[name] = normalize(self.home, name, value)
+            except ContextError as e:
+                self._reject(topic, value, str(e))
+        with self._changed:
+            changed = {n: v for n, v in accepted.items() if self._values.get(n) != v}
+            self._values.update(changed)
+            complete = all(n in self._values for n in self._names)
+            snapshot = {n: self._values[n] for n in self._names} if complete else None
+            if changed:
+                self._changed.notify_all()
+        if changed:
+            log.debug("MQTT context %s", changed)
+        if changed and snapshot is not None and self.on_change is not None:
+            try:
+                self.on_change(snapshot)
+            except Exception:
+                log.exception("MQTT on_change callback failed")
+        return bool(changed)
+
+    def _reject(self, topic: str, payload: object, why: str) -> None:
+        with self._lock:
+            self.rejected += 1
+        log.warning("MQTT %s: ignored %r: %s", topic, payload, why)

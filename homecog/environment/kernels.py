@@ -1,0 +1,172 @@
+"""The environment's step as kernels compiled by numba: the distance to the optimum, a service's
+effect, whether it is prohibited, the reward of Eq. 1, and steps one at a time or in arrays.
+
+A state is ``(c, h, n)``: the context index ``c``, the device states ``h`` as bits (bit ``i``
+set = device ``i`` on) and the pending needs ``n`` as bits over the needs of ``c``. The kernels
+are plain Python over the arrays of :class:`~homecog.environment.tables.Tables`; run with
+``NUMBA_DISABLE_JIT=1`` they are the same algorithm as a plain-Python loop (the benchmark and
+the equivalence test do that). Learning's kernels inline the helpers here.
+
+>>> popcount(0b1011)
+3
+"""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+
+from homecog.environment.tables import Tables
+
+_jit = numba.njit(cache=True, nogil=True)
+# Small helpers are inlined into the kernels at numba's IR level: a call that is not
+# inlined increments and decrements the reference count of every array of the tables,
+# which costs more than the helper itself.
+_inline = numba.njit(cache=True, nogil=True, inline="always")
+
+# -- kernels ------------------------------------------------------------------------------
+# The kernels unpack the tables into local arrays once and pass arrays, not the tuple,
+# to the inlined helpers: reading an array out of the tuple inside branchy code makes
+# numba count references on every access, which costs ten times the step itself.
+
+
+@_inline
+def popcount(x: int) -> int:
+    """Number of set bits of a value below 2**32 (SWAR; the same in plain Python)."""
+    x = x - ((x >> 1) & 0x55555555)
+    x = (x & 0x33333333) + ((x >> 2) & 0x33333333)
+    x = (x + (x >> 4)) & 0x0F0F0F0F
+    return ((x * 0x01010101) & 0xFFFFFFFF) >> 24
+
+
+@_inline
+def distance(care_c: int, want_c: int, h: int, n: int) -> int:
+    """Devices not in their wanted state plus pending needs (care_c, want_c: the context's bits)."""
+    return popcount((h ^ want_c) & care_c) + popcount(n)
+
+
+@_inline
+def apply(
+    set_mask: np.ndarray, set_val: np.ndarray, need_pos: np.ndarray, c: int, h: int, n: int, a: int
+) -> tuple[int, int]:
+    """Device states and pending needs after service a."""
+    # One return statement each: numba inlines early returns poorly in hot loops.
+    p = need_pos[c, a]
+    h2 = (h & ~set_mask[a]) | set_val[a]
+    n2 = n & ~(1 << p) if p >= 0 else n
+    return h2, n2
+
+
+@_inline
+def is_prohibited(
+    prohibited_ctx: np.ndarray,
+    rule_start: np.ndarray,
+    rule_ctx: np.ndarray,
+    rule_mask: np.ndarray,
+    rule_val: np.ndarray,
+    c: int,
+    h: int,
+    a: int,
+) -> bool:
+    """Whether service a is prohibited in context c with device states h."""
+    forbidden = prohibited_ctx[c, a]
+    r = rule_start[a]
+    while not forbidden and r < rule_start[a + 1]:
+        forbidden = rule_ctx[r, c] and (h & rule_mask[r]) == rule_val[r]
+        r += 1
+    return forbidden
+
+
+@_inline
+def reward(
+    w_terminal: float,
+    w_progress: float,
+    w_prohibited: float,
+    m: float,
+    before: int,
+    after: int,
+    forbidden: bool,
+) -> float:
+    """Eq. 1: w_p·(±m by progress) + w_t·(m at the optimum) − w_x·(m when prohibited)."""
+    r = w_progress * (m if after < before else -m)
+    if after == 0:
+        r += w_terminal * m
+    if forbidden:
+        r -= w_prohibited * m
+    return r
+
+
+@_inline
+def argmax_row(q: np.ndarray, s: int) -> int:
+    """Best service in state s (the first on ties)."""
+    best = 0
+    for a in range(1, q.shape[1]):
+        if q[s, a] > q[s, best]:
+            best = a
+    return best
+
+
+@_jit
+def step(t: Tables, c: int, h: int, n: int, a: int) -> tuple[int, int, float, bool, bool]:
+    """One environment step: (h', n', reward, terminated, prohibited), rewards as Eq. 1."""
+    (
+        _,
+        _,
+        _,
+        care,
+        want,
+        need_pos,
+        set_mask,
+        set_val,
+        prohibited_ctx,
+        rule_start,
+        rule_ctx,
+        rule_mask,
+        rule_val,
+        w,
+    ) = t
+    before = distance(care[c], want[c], h, n)
+    h2, n2 = apply(set_mask, set_val, need_pos, c, h, n, a)
+    after = distance(care[c], want[c], h2, n2)
+    forbidden = is_prohibited(prohibited_ctx, rule_start, rule_ctx, rule_mask, rule_val, c, h, a)
+    return h2, n2, reward(w[0], w[1], w[2], w[3], before, after, forbidden), after == 0, forbidden
+
+
+@_jit
+def step_many(
+    t: Tables, c: np.ndarray, h: np.ndarray, n: np.ndarray, a: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`step` over arrays of states and services at once."""
+    (
+        _,
+        _,
+        _,
+        care,
+        want,
+        need_pos,
+        set_mask,
+        set_val,
+        prohibited_ctx,
+        rule_start,
+        rule_ctx,
+        rule_mask,
+        rule_val,
+        w,
+    ) = t
+    size = len(c)
+    h2 = np.empty(size, dtype=np.int64)
+    n2 = np.empty(size, dtype=np.int64)
+    rewards = np.empty(size, dtype=np.float64)
+    done = np.empty(size, dtype=np.bool_)
+    forbidden = np.empty(size, dtype=np.bool_)
+    for i in range(size):
+        ci = c[i]
+        before = distance(care[ci], want[ci], h[i], n[i])
+        h2[i], n2[i] = apply(set_mask, set_val, need_pos, ci, h[i], n[i], a[i])
+        after = distance(care[ci], want[ci], h2[i], n2[i])
+        forbidden[i] = is_prohibited(
+            prohibited_ctx, rule_start, rule_ctx, rule_mask, rule_val, ci, h[i], a[i]
+        )
+        rewards[i] = reward(w[0], w[1], w[2], w[3], before, after, forbidden[i])
+        done[i] = after == 0
+    return h2, n2, rewards, done, forbidden

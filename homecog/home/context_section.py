@@ -1,0 +1,149 @@
+"""The ``context`` section of a home file: its features, their values or bins.
+
+A categorical feature lists its values; a numeric feature has bins that must neither overlap nor
+leave gaps between them (they need not cover the whole line); a clock feature has bins that
+must tile the whole day, one of them may wrap midnight (``night: [21, 7]``).
+
+>>> from homecog.home import load_home_text
+>>> load_home_text('''
+... name: den
+... context: {time: {kind: clock, bins: {day: [7, 21], night: [21, 6]}}}
+... devices: {lamp: {}}
+... services: {LampOn: {category: on, set: {lamp: on}}}
+... comfort: {lamp: [{want: on}]}
+... ''', "den.yaml")
+Traceback (most recent call last):
+...
+homecog.errors.HomeFileError: den.yaml: context.time.bins: gap between bins 'night' and 'day' (06:00 to 07:00)
+"""
+
+from __future__ import annotations
+
+import itertools
+
+from homecog.home.model import Feature, format_number
+from homecog.home.shapes import ShapeChecks, kind_of
+
+_KINDS = ("clock", "numeric", "categorical")
+
+
+class ContextSection(ShapeChecks):
+    """The validation of the ``context`` section."""
+
+    def features(self, section: object) -> tuple[Feature, ...]:
+        section = self.mapping(section, "context")
+        return tuple(self.feature(name, spec, f"context.{name}") for name, spec in section.items())
+
+    def feature(self, name: str, spec: object, path: str) -> Feature:
+        self.name(name, path, "feature")
+        spec = self.mapping(spec, path)
+        self.keys(spec, path, ("kind", "unit", "bins", "values", "description"), ("kind",))
+        kind = spec["kind"]
+        if kind not in _KINDS:
+            raise self.fail(f"{path}.kind", f"unknown kind {kind!r}; expected one of {', '.join(_KINDS)}")
+        unit = spec.get("unit")
+        if unit is not None:
+            unit = str(unit)
+        if kind == "categorical":
+            if "bins" in spec:
+                raise self.fail(f"{path}.bins", "a categorical feature has values, not bins")
+            if "values" not in spec:
+                raise self.fail(path, "missing key 'values'")
+            values = spec["values"]
+            if not isinstance(values, list):
+                raise self.fail(f"{path}.values", f"expected a list, got {kind_of(values)}")
+            if not values:
+                raise self.fail(f"{path}.values", "empty value list")
+            names = []
+            for i, v in enumerate(values):
+                if isinstance(v, (dict, list)) or v is None:
+                    raise self.fail(f"{path}.values[{i}]", f"expected a value name, got {kind_of(v)}")
+                text = str(v).strip()
+                if not text or any(c in text for c in ",=;\n"):
+                    raise self.fail(
+                        f"{path}.values[{i}]", f"value {text!r} may not be empty or contain , = ;"
+                    )
+                if text in names:
+                    raise self.fail(f"{path}.values[{i}]", f"duplicate value {text!r}")
+                names.append(text)
+            return Feature(name=name, kind="categorical", values=tuple(names), unit=unit)
+
+        if "values" in spec:
+            raise self.fail(f"{path}.values", f"a {kind} feature has bins, not values")
+        if "bins" not in spec:
+            raise self.fail(path, "missing key 'bins'")
+        bins_spec = self.mapping(spec["bins"], f"{path}.bins")
+        names, bins = [], []
+        for bin_name, bounds in bins_spec.items():
+            bpath = f"{path}.bins.{bin_name}"
+            self.name(bin_name, bpath, "bin")
+            if not isinstance(bounds, list) or len(bounds) != 2:
+                raise self.fail(bpath, f"expected [low, high], got {bounds!r}")
+            if kind == "clock":
+                low, high = (self.hours(b, f"{bpath}[{i}]") for i, b in enumerate(bounds))
+                if low == high:  # [0, 24] and [24, 0] are the whole day, not empty
+                    raise self.fail(bpath, f"empty bin [{format_number(low)}, {format_number(high)}]")
+            else:
+                low, high = (self.number(b, f"{bpath}[{i}]") for i, b in enumerate(bounds))
+                if low >= high:
+                    raise self.fail(
+                        bpath,
+                        f"bins reversed: low {format_number(low)} is not below high {format_number(high)}",
+                    )
+            names.append(bin_name)
+            bins.append((low % 24, high % 24) if kind == "clock" else (low, high))
+        if kind == "clock":
+            self.check_clock_cover(names, bins, f"{path}.bins")
+        else:
+            self.check_numeric_cover(names, bins, f"{path}.bins")
+        return Feature(name=name, kind=kind, values=tuple(names), bins=tuple(bins), unit=unit)
+
+    def check_numeric_cover(self, names: list[str], bins: list[tuple[float, float]], path: str) -> None:
+        order = sorted(range(len(bins)), key=lambda k: bins[k])
+        for a, b in itertools.pairwise(order):
+            (_, a_high), (b_low, _) = bins[a], bins[b]
+            if a_high > b_low:
+                raise self.fail(
+                    path,
+                    f"bins '{names[a]}' and '{names[b]}' overlap "
+                    f"({format_number(b_low)} to {format_number(a_high)})",
+                )
+            if a_high < b_low:
+                raise self.fail(
+                    path,
+                    f"gap between bins '{names[a]}' and '{names[b]}' "
+                    f"({format_number(a_high)} to {format_number(b_low)})",
+                )
+
+    def check_clock_cover(self, names: list[str], bins: list[tuple[float, float]], path: str) -> None:
+        # Cut wrapping bins at midnight, then the pieces must tile [0, 24) exactly.
+        pieces: list[tuple[float, float, int]] = []
+        for k, (low, high) in enumerate(bins):
+            if low < high:
+                pieces.append((low, high, k))
+            else:
+                pieces.append((low, 24.0, k))
+                if high > 0:
+                    pieces.append((0.0, high, k))
+        pieces.sort()
+        hhmm = _hhmm
+        if pieces[0][0] > 0:
+            raise self.fail(path, f"the clock bins leave a gap from 00:00 to {hhmm(pieces[0][0])}")
+        for (_, a_high, a), (b_low, _, b) in itertools.pairwise(pieces):
+            if a_high > b_low:
+                raise self.fail(
+                    path,
+                    f"bins '{names[a]}' and '{names[b]}' overlap "
+                    f"({hhmm(b_low)} to {hhmm(min(a_high, 24.0))})",
+                )
+            if a_high < b_low:
+                raise self.fail(
+                    path, f"gap between bins '{names[a]}' and '{names[b]}' ({hhmm(a_high)} to {hhmm(b_low)})"
+                )
+        if pieces[-1][1] < 24:
+            raise self.fail(path, f"the clock bins leave a gap from {hhmm(pieces[-1][1])} to 24:00")
+
+
+def _hhmm(hours: float) -> str:
+    minutes = round(hours * 60)
+    return f"{minutes // 60:02d}:{minutes % 60:02d}"

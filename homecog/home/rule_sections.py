@@ -1,0 +1,125 @@
+"""The rule sections of a home file: ``comfort`` (a device's wanted state where a condition
+holds), ``needs`` and ``prohibited`` (a service's conditions), and the conditions they share.
+
+A condition names features (and, outside ``comfort`` and ``needs``, devices) with the values it
+allows; a single value may stand for a list of one.
+
+>>> from homecog.home import load_home
+>>> home = load_home("paper")
+>>> rule = home.comfort[home.device_index("lamp")][0]
+>>> rule.want, [home.features[f].name for f, _ in rule.when.features]
+(True, ['location', 'behavior'])
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+from homecog.home.model import ComfortRule, Condition, Device, Feature, Service
+from homecog.home.shapes import ShapeChecks, kind_of, parse_device_state
+
+
+class RuleSections(ShapeChecks):
+    """The validation of ``comfort``, ``needs`` and ``prohibited``."""
+
+    def condition(
+        self,
+        spec: object,
+        path: str,
+        features: tuple[Feature, ...],
+        devices: tuple[Device, ...],
+        context_only: bool,
+    ) -> Condition:
+        spec = self.mapping(spec, path, allow_empty=True)
+        fnames = [f.name for f in features]
+        dnames = [d.name for d in devices]
+        fconds, dconds = [], []
+        for key, allowed in spec.items():
+            kpath = f"{path}.{key}"
+            values = allowed if isinstance(allowed, list) else [allowed]
+            if not values:
+                raise self.fail(kpath, "empty value list")
+            if key in fnames:
+                feature = features[fnames.index(key)]
+                codes = set()
+                for v in values:
+                    text = str(v).strip() if not isinstance(v, (dict, list)) else None
+                    if text not in feature.values:
+                        raise self.fail(
+                            kpath, f"unknown value {v!r}; expected one of {', '.join(feature.values)}"
+                        )
+                    codes.add(feature.values.index(text))
+                fconds.append((fnames.index(key), frozenset(codes)))
+            elif key in dnames and not context_only:
+                dconds.append((dnames.index(key), frozenset(self.state(v, kpath) for v in values)))
+            elif key in dnames:
+                raise self.fail(
+                    kpath, f"'{key}' is a device; these rules use context features only ({', '.join(fnames)})"
+                )
+            else:
+                expected = fnames + ([] if context_only else dnames)
+                raise self.fail(kpath, f"unknown feature {key!r}; expected one of {', '.join(expected)}")
+        return Condition(features=tuple(sorted(fconds)), devices=tuple(sorted(dconds)))
+
+    def rules(self, spec: object, path: str, parse: Callable[[dict[str, Any], str], Any]) -> tuple[Any, ...]:
+        if not isinstance(spec, list):
+            raise self.fail(path, f"expected a list of rules, got {kind_of(spec)}")
+        out = []
+        for i, rule in enumerate(spec):
+            rpath = f"{path}[{i}]"
+            out.append(parse(self.mapping(rule, rpath, allow_empty=True), rpath))
+        return tuple(out)
+
+    def comfort(
+        self, section: object, features: tuple[Feature, ...], devices: tuple[Device, ...]
+    ) -> tuple[tuple[ComfortRule, ...], ...]:
+        section = self.mapping(section, "comfort", allow_empty=True)
+        dnames = [d.name for d in devices]
+        by_device: dict[str, tuple[ComfortRule, ...]] = {}
+        for device, rules in section.items():
+            path = f"comfort.{device}"
+            if device not in dnames:
+                raise self.fail(path, f"unknown device {device!r}; expected one of {', '.join(dnames)}")
+
+            def parse(rule: dict[str, Any], rpath: str) -> ComfortRule:
+                self.keys(rule, rpath, ("when", "want"), ("want",))
+                when = self.condition(rule.get("when"), f"{rpath}.when", features, devices, True)
+                want = parse_device_state(rule["want"])
+                if want is None:
+                    raise self.fail(f"{rpath}.want", f"expected on or off, got {rule['want']!r}")
+                return ComfortRule(when=when, want=want)
+
+            by_device[device] = self.rules(rules, path, parse)
+        return tuple(by_device.get(name, ()) for name in dnames)
+
+    def service_rules(
+        self,
+        section: object,
+        key: str,
+        features: tuple[Feature, ...],
+        devices: tuple[Device, ...],
+        services: tuple[Service, ...],
+    ) -> tuple[tuple[Condition, ...], ...]:
+        section = self.mapping(section, key, allow_empty=True)
+        snames = [s.name for s in services]
+        by_service: dict[str, tuple[Condition, ...]] = {}
+        for service, rules in section.items():
+            path = f"{key}.{service}"
+            if service not in snames:
+                raise self.fail(path, f"unknown service {service!r}; expected one of {', '.join(snames)}")
+            if key == "needs" and not services[snames.index(service)].is_interaction:
+                raise self.fail(
+                    path,
+                    f"needs are for interaction services; {service} sets devices "
+                    "(its wanted states come from the comfort rules)",
+                )
+
+            def parse(rule: dict[str, Any], rpath: str) -> Condition:
+                self.keys(rule, rpath, ("when",))
+                return self.condition(
+                    rule.get("when"), f"{rpath}.when", features, devices, context_only=key == "needs"
+                )
+
+            by_service[service] = self.rules(rules, path, parse)
+        return tuple(by_service.get(name, ()) for name in snames)

@@ -1,0 +1,145 @@
+"""Scenario and event files (SPEC §9): CSV with a column per context feature and per device, a
+row per context; the services wanted there come from a ``services`` column or from a truth home.
+
+Every stage that reads such a file reads it here: ``homecog eval --scenarios`` and ``homecog
+replay`` (evaluation), ``homecog correct --events`` (knowledge). A file is checked whole; an
+error names the file, the line and the column.
+
+>>> import tempfile
+>>> from pathlib import Path
+>>> from homecog.home import load_home
+>>> home = load_home("paper")
+>>> header = ",".join(home.feature_names + home.device_names)
+>>> with tempfile.TemporaryDirectory() as folder:
+...     path = Path(folder) / "one.csv"
+...     _ = path.write_text(header + "\\n23:00,21,5,bed,lie,sleep,off,off,off,off,off,off,off,off\\n")
+...     (row,) = load_scenarios(path, home, home)
+>>> row.context["behavior"], sorted(row.truth)
+('sleep', [])
+"""
+
+from __future__ import annotations
+
+import csv
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+from homecog.errors import ContextError, EvaluationError
+from homecog.home.codec import Point, Space, parse_services
+from homecog.home.model import Home
+from homecog.home.states import parse_state
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """A context as a scenario-file row, its point, and the services the truth home wants.
+
+    ``truth`` is the canonical optimal set; ``choices`` holds, for every group of devices where
+    more than one set is optimal (services that set several devices), that group's optimal
+    sets, the canonical one first.
+    """
+
+    context: dict[str, str]
+    point: Point
+    truth: frozenset[str]
+    choices: tuple[tuple[frozenset[str], ...], ...] = ()
+    user: str | None = None  # an event file's ``user`` column, where it may have one
+
+    def truth_for(self, predicted: Sequence[str]) -> frozenset[str]:
+        """The optimal set that agrees best with a prediction: most services in common, then
+        fewest differences — chosen group by group, since both counts add up over groups."""
+        if not self.choices:
+            return self.truth
+        p = set(predicted)
+        out = set(self.truth)
+        for options in self.choices:
+            out -= options[0]
+            out |= max(options, key=lambda t: (len(p & t), -len(t ^ p)))
+        return frozenset(out)
+
+
+def truth_of(home: Home, point: Point) -> tuple[frozenset[str], tuple[tuple[frozenset[str], ...], ...]]:
+    """The canonical optimal set of a point under ``home`` and the groups' choices."""
+    from homecog.home.truth import choices
+
+    n_f = len(home.features)
+    per_group = choices(home, point.codes[:n_f], tuple(bool(c) for c in point.codes[n_f:]))
+    names = home.service_names
+    truth = frozenset(names[a] for c in per_group for a in c[0])
+    ambiguous = tuple(tuple(frozenset(names[a] for a in s) for s in c) for c in per_group if len(c) > 1)
+    return truth, ambiguous
+
+
+def load_scenarios(
+    path: Path, home: Home, truth: Home, *, events: bool = False, corrections: bool = False
+) -> list[Scenario]:
+    """Scenarios (or events) from a CSV file (SPEC §9); errors name the file, line and column.
+
+    ``corrections``: events to learn, which must say the services wanted and may name the
+    household member of each row in a ``user`` column.
+    """
+    space = Space(home)
+    needed = list(space.names)
+    try:
+        handle = path.open(newline="", encoding="utf-8")
+    except OSError as e:
+        raise EvaluationError(f"{path}: cannot read: {e.strerror}") from None
+    out = []
+    with handle:
+        reader = csv.DictReader(handle)
+        header = reader.fieldnames or []
+        if not header:
+            raise EvaluationError(f"{path}: empty file; expected a header with {', '.join(needed)}")
+        required = [*needed, "timestamp"] if events or corrections else needed
+        missing = [c for c in [*required, *(["services"] if corrections else [])] if c not in header]
+        if missing:
+            raise EvaluationError(f"{path}: line 1: missing column(s) {', '.join(missing)}")
+        if (events or corrections) and header[0] != "timestamp":
+            raise EvaluationError(f"{path}: line 1: the first column must be timestamp")
+        extra = ("services", "timestamp", *(["user"] if corrections else []))
+        unknown = [c for c in header if c not in needed and c not in extra]
+        if unknown:
+            raise EvaluationError(f"{path}: line 1: unknown column(s) {', '.join(unknown)}")
+        for line, row in enumerate(reader, start=2):
+            if None in row or any(row.get(c) is None for c in needed):
+                raise EvaluationError(f"{path}: line {line}: expected {len(header)} fields")
+            for j, name in enumerate(needed):
+                value = row[name].strip()
+                try:
+                    if j < space.n_features:
+                        home.features[j].discretize(value)
+                    else:
+                        parse_state(value, name)
+                except ContextError as e:
+                    raise EvaluationError(f"{path}: line {line}, column {name}: {e}") from None
+            if events or corrections:
+                _check_timestamp(path, line, row["timestamp"])
+            user = (row.get("user") or "").strip() or None
+            if user is not None and len(user) > 200:
+                raise EvaluationError(f"{path}: line {line}, column user: longer than 200 characters")
+            context = {name: row[name].strip() for name in needed}
+            point = space.point(context)
+            if row.get("services") is not None:
+                try:
+                    wanted = parse_services(row["services"].replace(";", ","), truth)
+                except ContextError as e:
+                    raise EvaluationError(f"{path}: line {line}, column services: {e}") from None
+                truth_set, ambiguous = frozenset(wanted), ()
+            else:
+                truth_set, ambiguous = truth_of(truth, point)
+            out.append(Scenario(context=context, point=point, truth=truth_set, choices=ambiguous, user=user))
+    if not out:
+        raise EvaluationError(f"{path}: no rows after the header")
+    return out
+
+
+def _check_timestamp(path: Path, line: int, value: str) -> None:
+    from datetime import datetime
+
+    try:
+        datetime.fromisoformat(value.strip())
+    except ValueError:
+        raise EvaluationError(
+            f"{path}: line {line}, column timestamp: {value!r} is not an ISO 8601 time"
+        ) from None

@@ -1,0 +1,164 @@
+"""The validation of a parsed home file: every section checked, the model built, and every
+error naming the file, the key path and what was expected (SPEC §2).
+
+The sections are validated by :class:`~homecog.home.context_section.ContextSection` (features)
+and :class:`~homecog.home.rule_sections.RuleSections` (comfort, needs, prohibited), with
+``layout``, ``routine`` and ``home_assistant`` in modules of their own; this module holds the
+rest (devices, services, rewards) and puts the home together.
+
+>>> HomeValidator("den.yaml").home({"name": "den", "context": {}})
+Traceback (most recent call last):
+...
+homecog.errors.HomeFileError: den.yaml: missing section 'devices'
+"""
+
+from __future__ import annotations
+
+from homecog.home.content import content_hash
+from homecog.home.context_section import ContextSection
+from homecog.home.home_assistant import parse_home_assistant
+from homecog.home.layout import parse_layout
+from homecog.home.model import Device, Home, Rewards, Service, format_number
+from homecog.home.routine import parse_routine
+from homecog.home.rule_sections import RuleSections
+from homecog.home.shapes import parse_device_state
+
+_SECTIONS = (
+    "name",
+    "description",
+    "context",
+    "devices",
+    "services",
+    "comfort",
+    "needs",
+    "prohibited",
+    "rewards",
+    "layout",
+    "routine",
+    "home_assistant",
+)
+_REQUIRED = ("name", "context", "devices", "services", "comfort")
+
+
+class HomeValidator(ContextSection, RuleSections):
+    """Walks the parsed YAML, building the model and failing with key paths."""
+
+    def home(self, data: object) -> Home:
+        if data is None:
+            raise self.fail("", "is empty; expected a home definition")
+        data = self.mapping(data, "")
+        self.keys(data, "", _SECTIONS)
+        for key in _REQUIRED:
+            if key not in data:
+                raise self.fail("", f"missing section '{key}'")
+        name = data["name"]
+        if not isinstance(name, str) or not name.strip():
+            raise self.fail("name", f"expected a non-empty string, got {name!r}")
+        description = data.get("description")
+        if description is not None and not isinstance(description, str):
+            raise self.fail("description", "expected a string")
+
+        features = self.features(data["context"])
+        devices = self.devices(data["devices"])
+        clash = {f.name for f in features} & {d.name for d in devices}
+        if clash:
+            raise self.fail(
+                f"devices.{sorted(clash)[0]}", "a device may not share a name with a context feature"
+            )
+        services = self.services(data["services"], devices)
+        comfort = self.comfort(data["comfort"], features, devices)
+        needs = self.service_rules(data.get("needs"), "needs", features, devices, services)
+        prohibited = self.service_rules(data.get("prohibited"), "prohibited", features, devices, services)
+        rewards = self.rewards(data.get("rewards"))
+        layout = None
+        if data.get("layout") is not None:
+            layout = parse_layout(
+                data["layout"],
+                self.fail,
+                devices={d.name: (d.room, d.iot) for d in devices},
+                interaction={s.name for s in services if not s.sets},
+                services={s.name for s in services},
+            )
+
+        home = Home(
+            name=name.strip(),
+            features=features,
+            devices=devices,
+            services=services,
+            comfort=comfort,
+            needs=needs,
+            prohibited=prohibited,
+            rewards=rewards,
+            layout=layout,
+            routine=parse_routine(data.get("routine"), features, devices, self.fail),
+            home_assistant=parse_home_assistant(data.get("home_assistant"), features, devices, self.fail),
+            description=description,
+            source=self.source,
+        )
+        object.__setattr__(home, "content_hash", content_hash(home))
+        return home
+
+    def devices(self, section: object) -> tuple[Device, ...]:
+        section = self.mapping(section, "devices")
+        out = []
+        for name, spec in section.items():
+            path = f"devices.{name}"
+            self.name(name, path, "device")
+            spec = self.mapping(spec, path, allow_empty=True)
+            self.keys(spec, path, ("room", "iot", "place", "description"))
+            iot = parse_device_state(spec.get("iot", True))
+            if iot is None:
+                raise self.fail(f"{path}.iot", f"expected true or false, got {spec['iot']!r}")
+            room = spec.get("room")
+            out.append(Device(name=name, room=None if room is None else str(room), iot=iot))
+        return tuple(out)
+
+    def services(self, section: object, devices: tuple[Device, ...]) -> tuple[Service, ...]:
+        section = self.mapping(section, "services")
+        device_names = [d.name for d in devices]
+        out = []
+        for name, spec in section.items():
+            path = f"services.{name}"
+            self.name(name, path, "service")
+            spec = self.mapping(spec, path)
+            self.keys(spec, path, ("category", "set", "description"), ("category",))
+            category = spec["category"]
+            if not isinstance(category, str) or not category.strip():
+                raise self.fail(f"{path}.category", f"expected a category name, got {category!r}")
+            sets = []
+            for device, state in self.mapping(spec.get("set"), f"{path}.set", allow_empty=True).items():
+                if device not in device_names:
+                    raise self.fail(
+                        f"{path}.set.{device}",
+                        f"unknown device {device!r}; expected one of {', '.join(device_names)}",
+                    )
+                sets.append((device, self.state(state, f"{path}.set.{device}")))
+            description = spec.get("description")
+            out.append(
+                Service(
+                    name=name,
+                    category=category.strip(),
+                    sets=tuple(sets),
+                    description=None if description is None else str(description),
+                )
+            )
+        return tuple(out)
+
+    def rewards(self, section: object) -> Rewards:
+        if section is None:
+            return Rewards()
+        section = self.mapping(section, "rewards", allow_empty=True)
+        self.keys(section, "rewards", ("weights", "magnitude"))
+        weights = self.mapping(section.get("weights"), "rewards.weights", allow_empty=True)
+        self.keys(weights, "rewards.weights", ("terminal", "progress", "prohibited"))
+        default = Rewards()
+        values = {
+            k: self.number(weights.get(k, getattr(default, k)), f"rewards.weights.{k}")
+            for k in ("terminal", "progress", "prohibited")
+        }
+        magnitude = self.number(section.get("magnitude", default.magnitude), "rewards.magnitude")
+        if magnitude <= 0:
+            raise self.fail(
+                "rewards.magnitude", f"expected a positive number, got {format_number(magnitude)}"
+            )
+        return Rewards(magnitude=magnitude, **values)
