@@ -8,16 +8,20 @@ from __future__ import annotations
 import contextlib
 import json
 import os
+import shutil
 import signal
 import subprocess
 import sys
+import tempfile
 import time
+from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
-from fleet_homes import home_rows, write_homes
+from fleet_homes import home_rows, home_text, write_homes
 from sqlalchemy import insert, select
 from sqlalchemy.exc import OperationalError
+from webserver import free_port
 
 from homecog.cli.main import main
 from homecog.home import Home, load_home_text
@@ -28,6 +32,9 @@ from homecog.knowledge.store import Store
 from homecog.learning.policy import Policy
 
 BAD = "name: [oops\n"
+# no usage reports; no token authentication on the test's own cluster (Ray 2.60 turns it on for
+# ray start, and the driver would need the token of the cluster)
+RAY_ENV = {**os.environ, "RAY_USAGE_STATS_ENABLED": "0", "RAY_AUTH_MODE": "disabled"}
 
 
 def run(capsys, *args) -> tuple[int, str, str]:
@@ -119,12 +126,25 @@ def test_a_database_that_cannot_be_used_is_one_line(tmp_path, capsys):
 
 
 # -- on Ray ---------------------------------------------------------------------------------------
+def write_too_large(folder: Path, name: str = "huge") -> None:
+    """A home file that loads but that learning refuses, in the task, after the driver has
+    loaded it: two unused features of 1,000 values each make its largest group's Q table
+    2,592,000,000 states × 4 services, over the size check's limit (not a memory estimate:
+    alike on every machine)."""
+    values = ", ".join(f"v{i}" for i in range(1000))
+    extra = "".join(f"  {f}: {{kind: categorical, values: [{values}]}}\n" for f in ("mood", "weather"))
+    text = home_text(1, name=name).replace("  posture:", extra + "  posture:", 1)
+    (folder / f"{name}.yaml").write_text(text)
+
+
 @pytest.mark.slow
 @pytest.mark.xdist_group("ray")
 def test_a_local_ray_learns_two_homes_as_the_serial_run_does(tmp_path):
+    """... and reports a file that does not load and a home that fails in its task."""
     _have_ray()
     homes = write_homes(tmp_path / "homes", 2)
     (tmp_path / "homes" / "broken.yaml").write_text(BAD)
+    write_too_large(tmp_path / "homes")
     ray_url, serial_url = (f"sqlite:///{tmp_path / f'{k}.sqlite'}" for k in ("ray", "serial"))
     env = {**os.environ, "RAY_USAGE_STATS_ENABLED": "0"}
     done = subprocess.run(
@@ -141,7 +161,12 @@ def test_a_local_ray_learns_two_homes_as_the_serial_run_does(tmp_path):
         "broken.yaml": "failed",
         "home0.yaml": "learned",
         "home1.yaml": "learned",
+        "huge.yaml": "failed",
     }
+    huge = next(h for h in report["homes"] if h["file"] == "huge.yaml")
+    assert huge["home"] == "huge"  # loaded: it failed in its task, in training
+    assert huge["error"].startswith("huge: too large to learn: its largest group")
+    assert set(home_rows(ray_url)) == {"home0", "home1"}
     subprocess.run(fleet_command(tmp_path / "homes", "--db", serial_url, "--serial"), timeout=300, env=env)
     for home in homes:  # the same seed: the same tree wherever it was learned
         trees = []
@@ -150,6 +175,77 @@ def test_a_local_ray_learns_two_homes_as_the_serial_run_does(tmp_path):
             trees.append(store.load_tree().signature())
             store.close()
         assert trees[0] == trees[1]
+
+
+@contextlib.contextmanager
+def ray_cluster(tmp_path: Path) -> Iterator[str]:
+    """A Ray cluster of 2 CPUs started with ``ray start --head`` on free ports, in a session of
+    its own, until the block ends: its address. Stopped by signalling that session (not
+    ``ray stop``, which stops every Ray of this user on the machine, other runs' too); skips,
+    saying why, when it cannot start."""
+    ray = Path(sys.executable).parent / "ray"
+    ports = [free_port() for _ in range(7)]
+    temp = Path(tempfile.mkdtemp(prefix="ray", dir="/tmp"))  # short: Ray's socket paths
+    command = [str(ray), "start", "--head", "--block", "--num-cpus", "2", "--include-dashboard=false"]
+    command += ["--port", ports[0], "--temp-dir", str(temp), "--ray-client-server-port", ports[1]]
+    command += ["--dashboard-agent-listen-port", ports[2], "--dashboard-agent-grpc-port", ports[3]]
+    command += ["--metrics-export-port", ports[4], "--runtime-env-agent-port", ports[5]]
+    command += ["--node-manager-port", ports[6]]
+    log_path = tmp_path / "ray-start.log"
+    with log_path.open("wb") as log:
+        proc = subprocess.Popen(
+            [str(c) for c in command],
+            stdout=log,
+            stderr=subprocess.STDOUT,
+            env=RAY_ENV,
+            start_new_session=True,
+        )
+    try:
+        deadline = time.monotonic() + 60
+        while "Ray runtime started" not in log_path.read_text(errors="replace"):
+            if proc.poll() is not None or time.monotonic() > deadline:
+                reason = f"ray start --head did not start a cluster: {log_path.read_text()[-500:]}"
+                print(f"\nSKIP {reason}", file=sys.stderr)
+                pytest.skip(reason)
+            time.sleep(0.2)
+        yield f"127.0.0.1:{ports[0]}"
+    finally:
+        proc.terminate()  # ray start --block stops what it started, then itself
+        try:
+            proc.wait(timeout=20)
+        finally:
+            with contextlib.suppress(ProcessLookupError):  # anything of its session left
+                os.killpg(proc.pid, signal.SIGKILL)
+            proc.wait()
+        shutil.rmtree(temp, ignore_errors=True)
+
+
+@pytest.mark.slow
+@pytest.mark.xdist_group("ray")
+def test_ray_address_learns_on_a_running_cluster(tmp_path):
+    """``--ray ADDRESS``: the tasks go to a cluster started apart (``ray start --head``); a home
+    that fails in its task is reported, the other learned."""
+    _have_ray()
+    write_homes(tmp_path / "homes", 1)
+    write_too_large(tmp_path / "homes")
+    url = f"sqlite:///{tmp_path / 'fleet.sqlite'}"
+    with ray_cluster(tmp_path) as address:
+        done = subprocess.run(
+            fleet_command(tmp_path / "homes", "--db", url, "--ray", address, "--json"),
+            capture_output=True,
+            text=True,
+            timeout=300,
+            env=RAY_ENV,
+        )
+    assert done.returncode == 1, done.stderr[-3000:]
+    report = json.loads(done.stdout)
+    assert report["ray"] == address
+    assert {h["file"]: h["status"] for h in report["homes"]} == {
+        "home0.yaml": "learned",
+        "huge.yaml": "failed",
+    }
+    assert "too large to learn" in report["homes"][1]["error"]
+    assert list(home_rows(url)) == ["home0"]
 
 
 # -- killed ---------------------------------------------------------------------------------------

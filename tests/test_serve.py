@@ -25,6 +25,8 @@ from webserver import copy_database, free_port, get, send
 from homecog.fleet.serve import Fleet, FleetApp
 from homecog.fleet.train import learn_home, plan
 from homecog.home import Home
+from homecog.knowledge.database import make_engine
+from homecog.knowledge.ihdr import IHDRTree
 from homecog.knowledge.store import Store
 from homecog.web.main import create_app
 from homecog.web.runtime import ManualSource, Runtime
@@ -162,6 +164,86 @@ def test_the_token_guards_every_api_path(fleet_url, fleet_db):
     assert client.post(f"/api/homes/{home.name}/cognize", json=body, headers=auth).status_code == 200
 
 
+def test_each_home_schema_documents_the_fleets_own_answers(fleet_url, fleet_db):
+    """Every operation of a home's schema documents what the fleet layer answers before the
+    home's app (an unknown home, the database, the home's stored file; the token where the
+    server has one), with the one error model; and those answers fit it."""
+    home = fleet_db[1][0]
+    for token in (None, TOKEN):
+        fleet = Fleet(fleet_url, Settings(token=token))
+        client = TestClient(FleetApp(fleet))
+        auth = {"Authorization": f"Bearer {token}"} if token else {}
+        schema = client.get(f"/api/homes/{home.name}/openapi.json").json()
+        operations = [op for ops in schema["paths"].values() for op in ops.values()]
+        assert len(operations) == 5
+        expected = {"404", "409", "503"} | ({"401"} if token else set())
+        for op in operations:
+            assert expected <= set(op["responses"]), op["operationId"]
+            for code in expected:
+                content = op["responses"][code]["content"]["application/json"]["schema"]
+                assert content == {"$ref": "#/components/schemas/ErrorOut"}
+            assert ("401" in op["responses"]) == bool(token)  # only where it can happen
+        assert schema["components"]["schemas"]["ErrorOut"]["required"] == ["detail"]
+        gone = client.get("/api/homes/nowhere/history", headers=auth)
+        assert gone.status_code == 404 and list(gone.json()) == ["detail"]
+        fleet.engine.dispose()  # the database goes away under the server: an empty one now
+        fleet.engine = make_engine("sqlite://")
+        down = client.get(f"/api/homes/{home.name}/history", headers=auth)
+        assert down.status_code == 503 and list(down.json()) == ["detail"], down.text
+        assert "cannot be used" in down.json()["detail"]
+
+
+def test_the_fleet_schema_describes_the_list_of_homes(fleet_url):
+    """``/api/openapi.json``: ``GET /api/homes`` with its 200 model, 503 and (with a token) 401;
+    a path no home's name can take."""
+    for token in (None, TOKEN):
+        client = TestClient(FleetApp(Fleet(fleet_url, Settings(token=token))))
+        schema = client.get("/api/openapi.json").json()
+        assert list(schema["paths"]) == ["/api/homes"] and list(schema["paths"]["/api/homes"]) == ["get"]
+        op = schema["paths"]["/api/homes"]["get"]
+        assert set(op["responses"]) == {"200", "503"} | ({"401"} if token else set())
+        model = schema["components"]["schemas"]["HomesOut"]
+        assert model["properties"]["homes"]["type"] == "array" and model["required"] == ["homes"]
+        assert "/api/homes/{home}/openapi.json" in schema["info"]["description"]
+        if token:
+            assert op["security"] == [{"token": []}]
+            assert schema["components"]["securitySchemes"]["token"]["scheme"] == "bearer"
+        assert client.post("/api/openapi.json").status_code == 405
+
+
+def test_only_get_and_head_on_the_list_and_the_schemas_with_allow(fleet_url):
+    client = TestClient(FleetApp(Fleet(fleet_url)))
+    for path in ("/api/homes", "/api/openapi.json", "/api/homes/home0/openapi.json"):
+        for method in ("POST", "PUT", "DELETE"):
+            answer = client.request(method, path)
+            assert answer.status_code == 405, (method, path)
+            assert answer.headers["allow"] == "GET, HEAD"
+            assert answer.json() == {"detail": f"{method} is not allowed here; allowed: GET, HEAD"}
+        assert client.head(path).status_code == 200
+
+
+def test_the_schemas_need_no_token_as_with_homecog_up(fleet_url, fleet_db):
+    """As ``homecog up``'s ``/openapi.json``, the schemas need no token; everything else does,
+    and an unknown home's schema names no other home to a stranger."""
+    home = fleet_db[1][0]
+    client = TestClient(FleetApp(Fleet(fleet_url, Settings(token=TOKEN))))
+    assert client.get("/api/openapi.json").status_code == 200
+    schema = client.get(f"/api/homes/{home.name}/openapi.json")
+    assert schema.status_code == 200 and schema.json()["info"]["title"] == f"homecog: {home.name}"
+    runtime = Runtime(
+        home=home, store=Store("sqlite://", home), tree=IHDRTree(home), source=ManualSource(home)
+    )
+    up = TestClient(create_app(runtime, Settings(token=TOKEN)))
+    assert up.get("/openapi.json").status_code == 200  # homecog up's, the same way
+    assert up.get("/api/home").status_code == 401
+    assert client.get(f"/api/homes/{home.name}/home").status_code == 401
+    stranger = client.get("/api/homes/nowhere/openapi.json")
+    assert stranger.json() == {"detail": "unknown home 'nowhere'"} and stranger.status_code == 404
+    auth = {"Authorization": f"Bearer {TOKEN}"}
+    named = client.get("/api/homes/nowhere/openapi.json", headers=auth).json()["detail"]
+    assert named == "unknown home 'nowhere'; the database holds 'home0', 'home1'"
+
+
 # -- serve processes --------------------------------------------------------------------------------
 @contextmanager
 def homecog_serve(db: str, data: Path, *args: str) -> Iterator[str]:
@@ -177,7 +259,7 @@ def homecog_serve(db: str, data: Path, *args: str) -> Iterator[str]:
         deadline = time.monotonic() + 60
         while True:
             try:
-                urllib.request.urlopen(f"{base}/api/homes", timeout=2).close()
+                urllib.request.urlopen(f"{base}/api/openapi.json", timeout=2).close()  # no token
                 break
             except (urllib.error.URLError, OSError):
                 assert proc.poll() is None, log_path.read_text()
@@ -217,20 +299,28 @@ def test_two_servers_on_postgresql_a_correction_through_one_seen_through_the_oth
 
 
 @pytest.mark.slow
-def test_schemathesis_finds_nothing(fleet_url, tmp_path):
+@pytest.mark.parametrize("token", [None, TOKEN], ids=["127.0.0.1", "token"])
+def test_schemathesis_finds_nothing(fleet_url, tmp_path, token):
     """Schemathesis with every check against a home of a running ``homecog serve``, as against
-    ``homecog up`` (tests/test_contract.py)."""
-    with homecog_serve(fleet_url, tmp_path / "data") as base:
-        report = tmp_path / "junit.xml"
-        command = [sys.executable, "-m", "schemathesis.cli", "run", f"{base}/api/homes/home0/openapi.json"]
-        command += ["--checks", "all", "--max-examples", "50", "--seed", "12", "--request-timeout", "30"]
-        command += ["--report", "junit", "--report-junit-path", str(report), "--no-color"]
-        run = subprocess.run(command, capture_output=True, text=True, timeout=300, cwd=tmp_path)
-    assert run.returncode == 0, run.stdout[-6000:] + run.stderr[-2000:]
-    suite = ET.parse(report).getroot()
-    names = sorted(c.get("name", "") for c in suite.iter("testcase"))
-    assert len(names) == 5, names  # home, cognize, corrections, plan, history
-    assert "No issues found" in run.stdout
+    ``homecog up`` (tests/test_contract.py), and against the fleet's own schema (the list)."""
+    args = ["--token", token] if token else []
+    with homecog_serve(fleet_url, tmp_path / "data", *args) as base:
+        for schema, operations in (("homes/home0/openapi.json", 5), ("openapi.json", 1)):
+            report = tmp_path / "junit.xml"
+            command = [sys.executable, "-m", "schemathesis.cli", "run", f"{base}/api/{schema}"]
+            command += ["--checks", "all", "--max-examples", "50", "--seed", "12", "--request-timeout", "30"]
+            command += ["--report", "junit", "--report-junit-path", str(report), "--no-color"]
+            if token:
+                command += ["--header", f"Authorization: Bearer {token}"]
+            run = subprocess.run(command, capture_output=True, text=True, timeout=300, cwd=tmp_path)
+            assert run.returncode == 0, run.stdout[-6000:] + run.stderr[-2000:]
+            suite = ET.parse(report).getroot()
+            names = sorted(c.get("name", "") for c in suite.iter("testcase"))
+            assert len(names) == operations, names  # home, cognize, corrections, plan, history; homes
+            assert (
+                sum(int(s.get("failures", 0)) + int(s.get("errors", 0)) for s in suite.iter("testsuite")) == 0
+            )
+            assert "No issues found" in run.stdout
 
 
 def test_versions_are_read_in_batches_each_after_its_request_came():

@@ -3,7 +3,10 @@
 ``GET /api/homes`` lists the homes; under ``/api/homes/{home}/`` each home answers the
 one-home API of ``homecog up`` — ``home``, ``cognize``, ``corrections``, ``plan``,
 ``history`` and ``openapi.json`` — with the same routes, models, fast path and contract
-(:func:`homecog.web.main.create_app` with ``fleet``), the path rewritten to theirs.
+(:func:`homecog.web.main.create_app` with ``fleet``), the path rewritten to theirs. The
+schemas (:mod:`homecog.fleet.schema`: ``/api/openapi.json`` for the list, each home's its
+own) need no token, as ``homecog up``'s; everything else under ``/api`` does when the server
+has one, and an unknown home is a 404 naming the homes there are only to who has it.
 
 The server keeps nothing the database lacks. A home's tree is loaded on first use into a
 bounded LRU cache (with its home, read from the home file stored with the build); every
@@ -32,6 +35,7 @@ from sqlalchemy.engine import Connection
 from sqlalchemy.exc import DBAPIError, SQLAlchemyError
 
 from homecog.errors import FleetError, HomecogError, StoreError, UnknownHomeError
+from homecog.fleet.schema import FLEET_SCHEMA, HOME_SCHEMA, PREFIX, fleet_schema, prefixed
 from homecog.home.loader import load_home_text
 from homecog.knowledge.database import db_message, make_engine
 from homecog.knowledge.schema import HomeRow
@@ -40,7 +44,7 @@ from homecog.knowledge.store_log import stored_homes
 from homecog.web.runtime import ManualSource, Runtime
 from homecog.web.settings import Settings
 
-PREFIX = "/api/homes"
+READ = ("GET", "HEAD")  # the methods of the list of homes and of the schemas
 
 
 @dataclass
@@ -136,8 +140,11 @@ class Fleet:
         query on the primary key, on a connection kept for it."""
         query = select(HomeRow.name, HomeRow.version, HomeRow.build).where(HomeRow.name.in_(names))
         if self.engine.dialect.name == "sqlite":
-            with self.engine.connect() as conn:
-                rows = conn.execute(query).all()
+            try:
+                with self.engine.connect() as conn:
+                    rows = conn.execute(query).all()
+            except (SQLAlchemyError, DBAPIError) as e:
+                raise StoreError(db_message(self.url, e)) from None
         else:
             for attempt in (0, 1):  # a connection the server dropped: once more on a new one
                 try:
@@ -213,6 +220,7 @@ class FleetApp:
         self.versions = Versions(fleet)
         token = fleet.settings.token
         self.token = None if token is None else token.encode()
+        self.schema = fleet_schema(token=token is not None)
 
     async def __call__(self, scope: dict[str, Any], receive: Any, send: Any) -> None:
         if scope["type"] == "lifespan":
@@ -220,30 +228,41 @@ class FleetApp:
         if scope["type"] != "http":
             return None
         path: str = scope["path"]
-        if path.startswith("/api") and not self._authorized(scope):
+        method: str = scope["method"]
+        if path == FLEET_SCHEMA:  # as homecog up's /openapi.json: no token
+            if method not in READ:
+                return await _not_allowed(send, method)
+            return await _answer(send, 200, self.schema)
+        name, rest = None, ""
+        if path.startswith(PREFIX + "/"):
+            name, _, rest = path[len(PREFIX) + 1 :].partition("/")
+            name = unquote(name)
+        schema_asked = name is not None and rest == HOME_SCHEMA
+        authorized = self._authorized(scope)
+        if path.startswith("/api") and not authorized and not schema_asked:
             detail = "this server needs its token: Authorization: Bearer <token>"
             return await _answer(send, 401, {"detail": detail}, [(b"www-authenticate", b"Bearer")])
         try:
             if path in (PREFIX, PREFIX + "/"):
-                if scope["method"] not in ("GET", "HEAD"):
-                    return await _answer(send, 405, {"detail": f"{scope['method']} is not allowed here"})
+                if method not in READ:
+                    return await _not_allowed(send, method)
                 names = await asyncio.to_thread(self.fleet.names)
                 return await _answer(send, 200, {"homes": names})
-            if not path.startswith(PREFIX + "/"):
-                detail = f"not found: the API is {PREFIX} and {PREFIX}/{{home}}/..."
+            if name is None:
+                detail = f"not found: the API is {PREFIX} and {PREFIX}/{{home}}/... ({FLEET_SCHEMA})"
                 return await _answer(send, 404, {"detail": detail})
-            name, _, rest = path[len(PREFIX) + 1 :].partition("/")
-            name = unquote(name)
+            if schema_asked and method not in READ:
+                return await _not_allowed(send, method)
             entry = await self._fresh(name)
-        except UnknownHomeError as e:
-            return await _answer(send, 404, {"detail": str(e)})
+        except UnknownHomeError as e:  # the names only to who has the token
+            return await _answer(send, 404, {"detail": str(e) if authorized else f"unknown home {name!r}"})
         except StoreError as e:
             return await _answer(send, 503, {"detail": f"the knowledge database cannot be used: {e}"})
         except HomecogError as e:
             return await _answer(send, 409, {"detail": str(e)})
-        if rest == "openapi.json":
+        if schema_asked:
             if entry.schema is None:
-                entry.schema = _prefixed(entry.app.app.app.openapi(), f"{PREFIX}/{name}")
+                entry.schema = prefixed(entry.app.app.app.openapi(), f"{PREFIX}/{name}")
             return await _answer(send, 200, entry.schema)
         inner = "/api/" + rest
         scope = {**scope, "path": inner, "raw_path": inner.encode()}
@@ -275,12 +294,6 @@ class FleetApp:
         return scheme.lower() == b"bearer" and hmac.compare_digest(given.strip(), self.token)
 
 
-def _prefixed(schema: dict[str, Any], prefix: str) -> dict[str, Any]:
-    """A home's OpenAPI schema with its paths where the fleet serves them."""
-    paths = {prefix + p[len("/api") :]: v for p, v in schema["paths"].items() if p.startswith("/api")}
-    return {**schema, "paths": paths}
-
-
 async def _answer(
     send: Any, status: int, body: object, headers: list[tuple[bytes, bytes]] | None = None
 ) -> None:
@@ -297,6 +310,13 @@ async def _answer(
         }
     )
     await send({"type": "http.response.body", "body": data})
+
+
+async def _not_allowed(send: Any, method: str) -> None:
+    """405, with ``Allow`` as the one-home app words it (:mod:`homecog.web.errors`)."""
+    allowed = ", ".join(READ)
+    detail = f"{method} is not allowed here; allowed: {allowed}"
+    await _answer(send, 405, {"detail": detail}, [(b"allow", allowed.encode())])
 
 
 async def _lifespan(receive: Any, send: Any) -> None:

@@ -6,6 +6,7 @@
 - 409: a valid request the server cannot carry out now (a context that comes from a simulator or
   a broker set by hand; a plan in a home without a floor plan).
 - 503: the knowledge database cannot be used, or the home has not reported its state yet.
+- 404 (``homecog serve`` only): no home of the name in the URL; the message names those there are.
 - 405 lists in ``Allow`` every method of the path, not just those of the route that matched.
 """
 
@@ -35,6 +36,7 @@ def responses(*codes: int, stream: bool = False) -> dict[int | str, dict[str, An
     where the operation's own answer is an event ``stream``)."""
     what = {
         401: "No token, or a wrong one: this server needs `Authorization: Bearer <token>`.",
+        404: "No home of this name in the database (`homecog serve`); the message names those it holds.",
         409: "A valid request the server cannot carry out in its present state.",
         413: "A request body over the size limit (64 KiB).",
         422: "The request does not fit the contract; the message names what is wrong.",

@@ -37,6 +37,10 @@ from homecog.web.routes import cognize, context, corrections, events, history, h
 from homecog.web.runtime import Runtime
 from homecog.web.settings import Settings
 
+#: The answers ``homecog serve`` itself gives on every operation of a home, before the home's
+#: app: an unknown home, a database that cannot be used, a home whose stored file does not load.
+FLEET_ERRORS = (404, 409, 503)
+
 
 def create_app(runtime: Runtime, settings: Settings | None = None, *, fleet: bool = False) -> ASGIApp:
     """The ASGI application serving ``runtime``.
@@ -68,9 +72,15 @@ def create_app(runtime: Runtime, settings: Settings | None = None, *, fleet: boo
     errors.install(app, runtime.home)
     if not fleet:
         app.include_router(page.router)  # first: after cognition, the most asked for
-    guarded: dict[str, Any] = {}
+    # what the fleet's own layer may answer on every operation of a home (homecog.fleet.serve):
+    # the home gone from the database, the database unusable, the home's stored file unusable
+    shared = errors.responses(*FLEET_ERRORS) if fleet else {}
+    guarded: dict[str, Any] = {"responses": shared}
     if settings.token is not None:
-        guarded = {"dependencies": [Security(require_token)], "responses": errors.responses(401)}
+        guarded = {
+            "dependencies": [Security(require_token)],
+            "responses": {**shared, **errors.responses(401)},
+        }
     app.include_router(home.router, **guarded)
     makers = (cognize.router, corrections.router, plan.router)
     for make in makers if fleet else (context.router, *makers):
