@@ -45,8 +45,18 @@ def test_replay_learns_the_household(tmp_path, capsys):
     # the trees learn every correction at once; K-means cannot learn from the stream
     assert data["methods"]["multi"]["f1"] > data["methods"]["kmeans"]["f1"]
     assert data["methods"]["multi"]["f1"] >= 0.95
+    # multi's lead over every other method, with its interval over the events
+    versus = data["multi_minus"]
+    assert set(versus) == set(data["methods"]) - {"multi"}
+    for name, d in versus.items():
+        lead = data["methods"]["multi"]["f1"] - data["methods"][name]["f1"]
+        assert d["difference"] == pytest.approx(lead, abs=2e-6)
+        assert d["low"] <= d["high"]
+    assert versus["kmeans"]["low"] > 0  # 300 events tell a learner from one that cannot learn
     text = (tmp_path / "r" / "replay.md").read_text()
     assert "| multi |" in text
+    k = versus["kmeans"]
+    assert f"| {k['difference']:+.3f} [{k['low']:+.3f}, {k['high']:+.3f}] |" in text
     assert (tmp_path / "r" / "running.png").read_bytes()[:4] == b"\x89PNG"
 
 
@@ -75,6 +85,10 @@ def test_replay_rows_of_the_simple_learners_alone():
     rows = random_scenarios(home, 400, seed=3, truth=load_home(KIM))
     result = replay_rows(home, rows, methods=["frequency", "naive_bayes"], points=40)
     assert result.events == 400 and set(result.methods) == {"frequency", "naive_bayes"}
+    assert result.versus() == {} and "multi_minus" not in result.as_dict()  # no multi to compare
+    assert result.versus("frequency")["naive_bayes"].difference == pytest.approx(
+        result.methods["frequency"]["f1"] - result.methods["naive_bayes"]["f1"], abs=2e-6
+    )
     for name, series in result.running.items():
         assert [r[0] for r in series] == list(range(10, 401, 10))
         assert series[-1][3] == pytest.approx(result.methods[name]["f1"], abs=1e-6)

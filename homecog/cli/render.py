@@ -82,8 +82,11 @@ def eval_table(result: Any, home: str, truth: str) -> Table:
 def replay_table(result: Any, events: str) -> Table:
     """Each method's running figures at the end of an event stream."""
     table = Table(title=f"{result.events:,} events of {events}, predicted then learned", title_justify="left")
-    for col in ("method", "precision", "recall", "F1"):
+    versus = result.versus()
+    columns = ["method", "precision", "recall", "F1"] + (["multi − it [95 % interval]"] if versus else [])
+    for col in columns:
         table.add_column(col, justify="right" if col != "method" else "left")
     for name, m in result.methods.items():
-        table.add_row(name, *(f"{m[k]:.4f}" for k in ("precision", "recall", "f1")))
+        against = [str(versus[name]) if name in versus else ""] if versus else []
+        table.add_row(name, *(f"{m[k]:.4f}" for k in ("precision", "recall", "f1")), *against)
     return table

@@ -5,7 +5,10 @@ correction by the household (the same path as ``homecog correct``, in memory), t
 trees by ``learn_one``. K-means cannot learn one row at a time and answers from its training
 clusters throughout (a fixed baseline). The simple online learners (``frequency``,
 ``naive_bayes``) start from nothing and learn the household's events alone: they say what the
-stream itself teaches, without the home's rules. The running micro figures are kept after every event.
+stream itself teaches, without the home's rules. The running micro figures are kept after every
+event, and how far ``multi`` is ahead of (or behind) every other method, with a 95 % paired
+bootstrap interval over the events: on a short stream a difference of a few hundredths may be
+the events' chance, and the interval says so.
 """
 
 from __future__ import annotations
@@ -19,7 +22,7 @@ from typing import Any
 from homecog.evaluation.baselines import BASELINES, OnlineMethod
 from homecog.evaluation.learn import Learned, learn_methods
 from homecog.evaluation.methods import METHODS, HoeffdingMethod, TreeMethod
-from homecog.evaluation.metrics import prf
+from homecog.evaluation.metrics import Difference, f1_difference, prf
 from homecog.home.model import Home
 from homecog.home.scenario_file import Scenario, load_scenarios
 from homecog.knowledge.pipeline import ensure_policy
@@ -36,15 +39,35 @@ class ReplayResult:
     running: dict[str, list[tuple[int, float, float, float]]]  # (events, precision, recall, f1)
     seconds: float
     skipped: dict[str, str] = field(default_factory=dict)
+    # per method, per event: (hits, predicted, true)
+    counts: dict[str, list[tuple[int, int, int]]] = field(default_factory=dict, repr=False)
+    _versus: dict[str, Difference] | None = field(default=None, repr=False)
+
+    def versus(self, base: str = "multi") -> dict[str, Difference]:
+        """Per other method: ``base``'s F1 minus its F1, with a 95 % paired bootstrap interval
+        over the events (empty without ``base``)."""
+        if base != "multi":
+            return _versus(self.counts, base)
+        if self._versus is None:
+            self._versus = _versus(self.counts, base)
+        return self._versus
 
     def as_dict(self) -> dict[str, Any]:
+        versus = self.versus()
         return {
             "events": self.events,
             "methods": self.methods,
+            **({"multi_minus": {k: d.as_dict() for k, d in versus.items()}} if versus else {}),
             "seconds": round(self.seconds, 3),
             "running": {k: [list(r) for r in v] for k, v in self.running.items()},
             **({"skipped": self.skipped} if self.skipped else {}),
         }
+
+
+def _versus(counts: dict[str, list[tuple[int, int, int]]], base: str) -> dict[str, Difference]:
+    if base not in counts:
+        return {}
+    return {name: f1_difference(counts[base], c) for name, c in counts.items() if name != base}
 
 
 def _learn(method: Any, point: Any, wanted: Sequence[str]) -> None:
@@ -102,14 +125,16 @@ def replay_rows(
     every = max(1, len(rows) // points)
     totals = {name: [0, 0, 0] for name in learned}  # hits, predicted, true
     running: dict[str, list[tuple[int, float, float, float]]] = {name: [] for name in learned}
+    counts: dict[str, list[tuple[int, int, int]]] = {name: [] for name in learned}
     for i, row in enumerate(rows, start=1):
         for name, method in learned.items():
             answer = method.predict_one(row.point)
             predicted, truth = set(answer), row.truth_for(answer)
+            event = (len(predicted & truth), len(predicted), len(truth))
+            counts[name].append(event)
             t = totals[name]
-            t[0] += len(predicted & truth)
-            t[1] += len(predicted)
-            t[2] += len(truth)
+            for k in range(3):
+                t[k] += event[k]
             _learn(method, row.point, sorted(truth))
             if i % every == 0 or i == len(rows):
                 running[name].append((i, *prf(*t)))
@@ -125,4 +150,5 @@ def replay_rows(
         running=running,
         seconds=time.perf_counter() - start,
         skipped=learning.skipped,
+        counts=counts,
     )

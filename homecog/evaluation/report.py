@@ -156,10 +156,22 @@ def write_replay_report(result: dict[str, Any], folder: Path, title: str) -> Pat
         "| method | precision | recall | F1 |",
         "|---|---|---|---|",
     ]
-    lines += [
-        f"| {k} | {v['precision']:.4f} | {v['recall']:.4f} | {v['f1']:.4f} |"
-        for k, v in result["methods"].items()
-    ]
+    versus = result.get("multi_minus", {})
+    if versus:
+        lines[-2] += " multi − it [95 % interval] |"
+        lines[-1] += "---|"
+    for k, v in result["methods"].items():
+        row = f"| {k} | {v['precision']:.4f} | {v['recall']:.4f} | {v['f1']:.4f} |"
+        if versus:
+            d = versus.get(k)
+            row += f" {d['difference']:+.3f} [{d['low']:+.3f}, {d['high']:+.3f}] |" if d else " |"
+        lines.append(row)
+    if versus:
+        lines += [
+            "",
+            "multi − it: multi's F1 minus the method's, with a 95 % paired bootstrap interval over "
+            "the events; an interval that holds 0 cannot tell the two apart.",
+        ]
     lines += ["", "![running](running.png)", ""]
     path = folder / "replay.md"
     path.write_text("\n".join(lines) + "\n", encoding="utf-8")
