@@ -141,6 +141,12 @@ def test_eval_json_and_learning_curve(tmp_path, capsys):
     for m in data["methods"].values():
         assert set(m) >= {"precision", "recall", "f1", "exact"}
         assert 0 <= m["precision"] <= 1
+    # multi's lead over every other method on the same scenarios, with its interval
+    versus = data["multi_minus"]
+    assert set(versus) == set(data["methods"]) - {"multi"}
+    for name, d in versus.items():
+        lead = data["methods"]["multi"]["f1"] - data["methods"][name]["f1"]
+        assert d["difference"] == pytest.approx(lead, abs=2e-6) and d["low"] <= d["high"]
     curve = data["curve"]
     assert [c["corrections"] for c in curve] == list(range(0, 61, 6))
     assert curve[0]["f1"] < 0.95  # Kim's wishes differ from what the robot learned
@@ -150,6 +156,8 @@ def test_eval_json_and_learning_curve(tmp_path, capsys):
     assert data["report"] == str(report)
     text = report.read_text()
     assert "| multi |" in text and "Sarsa+IHDR (paper), Table 9" in text and "![curve](curve.png)" in text
+    k = versus["kmeans"]
+    assert f"| {k['difference']:+.3f} [{k['low']:+.3f}, {k['high']:+.3f}] |" in text
     for png in ("methods.png", "per_service.png", "curve.png"):
         assert (tmp_path / "rep" / png).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 

@@ -7,7 +7,7 @@ from typing import Any
 
 from rich.table import Table
 
-from homecog.evaluation.report import PAPER_TABLE9
+from homecog.evaluation.report import PAPER_TABLE9, VERSUS
 from homecog.home import Home
 
 
@@ -68,14 +68,18 @@ def home_tables(h: Home) -> list[Table]:
 def eval_table(result: Any, home: str, truth: str) -> Table:
     """Each method's micro figures beside the paper's Table 9."""
     table = Table(title=f"{home}: {result.scenarios:,} scenarios, truth {truth}", title_justify="left")
-    for col in ("method", "precision", "recall", "F1", "exact", "seconds"):
+    versus = result.versus()
+    columns = ["method", "precision", "recall", "F1", "exact", "seconds"] + ([VERSUS] if versus else [])
+    for col in columns:
         table.add_column(col, justify="right" if col != "method" else "left")
     for name, m in result.methods.items():
-        table.add_row(
-            name, *(f"{m.micro[k]:.4f}" for k in ("precision", "recall", "f1", "exact")), f"{m.seconds:.2f}"
-        )
+        figures = (f"{m.micro[k]:.4f}" for k in ("precision", "recall", "f1", "exact"))
+        against = [str(versus[name]) if name in versus else ""] if versus else []
+        table.add_row(name, *figures, f"{m.seconds:.2f}", *against)
     for name, (p, r, f) in PAPER_TABLE9.items():
-        table.add_row(name, f"{p / 100:.4f}", f"{r / 100:.4f}", f"{f / 100:.4f}", "", "")
+        table.add_row(
+            name, f"{p / 100:.4f}", f"{r / 100:.4f}", f"{f / 100:.4f}", "", "", *([""] if versus else [])
+        )
     return table
 
 
@@ -83,7 +87,7 @@ def replay_table(result: Any, events: str) -> Table:
     """Each method's running figures at the end of an event stream."""
     table = Table(title=f"{result.events:,} events of {events}, predicted then learned", title_justify="left")
     versus = result.versus()
-    columns = ["method", "precision", "recall", "F1"] + (["multi − it [95 % interval]"] if versus else [])
+    columns = ["method", "precision", "recall", "F1"] + ([VERSUS] if versus else [])
     for col in columns:
         table.add_column(col, justify="right" if col != "method" else "left")
     for name, m in result.methods.items():

@@ -3,6 +3,9 @@
 Quality (SPEC §9) is micro precision Σ|p∩t|/Σ|p|, recall Σ|p∩t|/Σ|t|, their F1 and the
 exact-match rate, plus the same averaged over scenarios and a per-service table.
 
+Beside every method, multi's F1 minus its own with a 95 % paired bootstrap interval over the
+scenarios (:func:`homecog.evaluation.metrics.leads`).
+
 Development over time: a simulated user whose wishes are a *truth* home corrects the robot
 after each of K scenarios, through the same path as ``homecog correct`` and the HMI (the
 store's transaction); precision, recall and F1 on held-out scenarios are measured before any
@@ -52,6 +55,8 @@ class MethodResult:
     per_service: dict[str, dict[str, float]]
     seconds: float
     predictions: list[list[str]] = field(default_factory=list, repr=False)
+    # per scenario: (hits, predicted, true)
+    counts: list[tuple[int, int, int]] = field(default_factory=list, repr=False)
 
     def as_dict(self) -> dict[str, Any]:
         return {
@@ -72,7 +77,12 @@ def evaluate(method: Method, scenarios: Sequence[Scenario], services: Sequence[s
     averaged = metrics.averaged(predicted, truths)
     per_service = metrics.per_service(predicted, truths, services)
     return MethodResult(
-        micro=micro, averaged=averaged, per_service=per_service, seconds=seconds, predictions=predicted
+        micro=micro,
+        averaged=averaged,
+        per_service=per_service,
+        seconds=seconds,
+        predictions=predicted,
+        counts=metrics.event_counts(predicted, truths),
     )
 
 
@@ -136,8 +146,17 @@ class EvalReport:
     home: str
     truth: str
     skipped: dict[str, str] = field(default_factory=dict)
+    _versus: dict[str, metrics.Difference] | None = field(default=None, repr=False)
+
+    def versus(self) -> dict[str, metrics.Difference]:
+        """Per other method: multi's micro F1 minus its own, with a 95 % paired bootstrap
+        interval over the scenarios (empty without multi)."""
+        if self._versus is None:
+            self._versus = metrics.leads({k: m.counts for k, m in self.methods.items()})
+        return self._versus
 
     def as_dict(self) -> dict[str, Any]:
+        versus = self.versus()
         out: dict[str, Any] = {
             "scenarios": self.scenarios,
             "home": self.home,
@@ -145,6 +164,8 @@ class EvalReport:
             "methods": {k: v.as_dict() for k, v in self.methods.items()},
             "seconds": round(self.seconds, 3),
         }
+        if versus:
+            out["multi_minus"] = {k: d.as_dict() for k, d in versus.items()}
         if self.skipped:
             out["skipped"] = self.skipped
         if self.curve is not None:

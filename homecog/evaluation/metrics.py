@@ -180,3 +180,26 @@ def f1_difference(
     )
     low, high = result.confidence_interval
     return Difference(point, float(low), float(high))
+
+
+Counts = Sequence[tuple[int, int, int]]
+
+
+def leads(counts: dict[str, Counts], base: str = "multi") -> dict[str, Difference]:
+    """Per method other than ``base``: ``base``'s micro F1 minus its own, with the interval of
+    :func:`f1_difference` (empty where ``base`` is not among them).
+
+    >>> d = leads({"multi": [(1, 1, 1)] * 9 + [(0, 1, 1)], "count": [(1, 1, 1)] * 5 + [(0, 1, 1)] * 5})
+    >>> list(d), round(d["count"].difference, 2)
+    (['count'], 0.4)
+    """
+    if base not in counts:
+        return {}
+    return {name: f1_difference(counts[base], c) for name, c in counts.items() if name != base}
+
+
+def event_counts(
+    predicted: Sequence[Sequence[str]], truth: Sequence[Sequence[str]]
+) -> list[tuple[int, int, int]]:
+    """Per scenario or event: (hits, predicted, true), as :func:`f1_difference` takes them."""
+    return [(len(set(p) & set(t)), len(set(p)), len(set(t))) for p, t in zip(predicted, truth, strict=True)]

@@ -22,7 +22,7 @@ from typing import Any
 from homecog.evaluation.baselines import BASELINES, OnlineMethod
 from homecog.evaluation.learn import Learned, learn_methods
 from homecog.evaluation.methods import METHODS, HoeffdingMethod, TreeMethod
-from homecog.evaluation.metrics import Difference, f1_difference, prf
+from homecog.evaluation.metrics import Difference, leads, prf
 from homecog.home.model import Home
 from homecog.home.scenario_file import Scenario, load_scenarios
 from homecog.knowledge.pipeline import ensure_policy
@@ -47,9 +47,9 @@ class ReplayResult:
         """Per other method: ``base``'s F1 minus its F1, with a 95 % paired bootstrap interval
         over the events (empty without ``base``)."""
         if base != "multi":
-            return _versus(self.counts, base)
+            return leads(self.counts, base)
         if self._versus is None:
-            self._versus = _versus(self.counts, base)
+            self._versus = leads(self.counts, base)
         return self._versus
 
     def as_dict(self) -> dict[str, Any]:
@@ -62,12 +62,6 @@ class ReplayResult:
             "running": {k: [list(r) for r in v] for k, v in self.running.items()},
             **({"skipped": self.skipped} if self.skipped else {}),
         }
-
-
-def _versus(counts: dict[str, list[tuple[int, int, int]]], base: str) -> dict[str, Difference]:
-    if base not in counts:
-        return {}
-    return {name: f1_difference(counts[base], c) for name, c in counts.items() if name != base}
 
 
 def _learn(method: Any, point: Any, wanted: Sequence[str]) -> None:
