@@ -13,7 +13,8 @@ household's events: it predicts each event, then learns it (the trees as a corre
 household, the online baselines by ``learn_one``; K-means stays as trained). Printed per
 household: the prequential F1 over the stream (against what the household did), and the F1 on
 held-out contexts after the stream (against what its rules ask for). The oracle answers with
-the household's rules.
+the household's rules. Beside the stream's figures: multi's F1 minus the best other learner's and
+minus the oracle's, each with a 95 % paired bootstrap interval over the events.
 
     bin/bench corrections            # or: python benchmarks/bench_corrections.py --quick
 """
@@ -38,7 +39,7 @@ from homes import home_text
 from homecog.evaluation.households import Household, make_household, oracle_predict
 from homecog.evaluation.learn import learn_methods
 from homecog.evaluation.methods import METHODS, TreeMethod
-from homecog.evaluation.metrics import prf
+from homecog.evaluation.metrics import leads, prf
 from homecog.home import load_home
 from homecog.home.model import Home
 from homecog.knowledge.pipeline import ensure_policy
@@ -79,6 +80,7 @@ def run_household(
     stream = household.stream(events, seed=seed, noisy=noisy)
     test = household.stream(held_out, seed=seed + 1000, noisy=False)
     totals = {name: [0, 0, 0] for name in [*methods, "oracle"]}
+    counts: dict[str, list[tuple[int, int, int]]] = {name: [] for name in totals}  # per event
     seconds = dict.fromkeys(methods, 0.0)
     for e in stream:
         for name, m in methods.items():
@@ -86,8 +88,8 @@ def run_household(
             predicted = set(m.predict_one(e.point))
             learn(m, e.point, sorted(e.wanted))
             seconds[name] += time.perf_counter() - t0
-            _tally(totals[name], predicted, e.wanted)
-        _tally(totals["oracle"], set(e.clean), e.wanted)
+            counts[name].append(_tally(totals[name], predicted, e.wanted))
+        counts["oracle"].append(_tally(totals["oracle"], set(e.clean), e.wanted))
     out: dict[str, dict[str, float]] = {}
     for name in totals:
         held = [0, 0, 0]
@@ -101,13 +103,20 @@ def run_household(
             "held_out_f1": round(prf(*held)[2], 4),
             "seconds": round(seconds.get(name, 0.0), 2),
         }
+    if "multi" in counts:  # multi's lead over the best other learner, and over the oracle
+        versus = leads(counts)
+        others = [n for n in versus if n != "oracle"]
+        best = max(others, key=lambda n: out[n]["stream_f1"]) if others else None
+        out["multi"]["lead"] = {"over": best, **versus[best].as_dict()} if best else {}
+        out["multi"]["oracle"] = versus["oracle"].as_dict()
     return out
 
 
-def _tally(t: list[int], predicted: set[str], truth: frozenset[str]) -> None:
-    t[0] += len(predicted & truth)
-    t[1] += len(predicted)
-    t[2] += len(truth)
+def _tally(t: list[int], predicted: set[str], truth: frozenset[str]) -> tuple[int, int, int]:
+    event = (len(predicted & truth), len(predicted), len(truth))
+    for k in range(3):
+        t[k] += event[k]
+    return event
 
 
 def main() -> None:
@@ -155,12 +164,22 @@ def main() -> None:
         table.add_column("household")
         for c in columns:
             table.add_column(c, justify="right")
+        stream = measure == "stream_f1"
+        if stream:  # 95 % paired bootstrap intervals over the stream's events
+            table.add_column("multi − best other [95 %]", justify="right")
+            table.add_column("multi − oracle [95 %]", justify="right")
         for row in rows:
             present = row["methods"]
-            table.add_row(
-                row["household"], *[f"{present[c][measure]:.4f}" if c in present else "-" for c in columns]
-            )
+            cells = [f"{present[c][measure]:.4f}" if c in present else "-" for c in columns]
+            if stream and "multi" in present:
+                lead, oracle = present["multi"]["lead"], present["multi"]["oracle"]
+                cells += [f"{_interval(lead)} ({lead['over']})", _interval(oracle)]
+            table.add_row(row["household"], *cells)
         Console().print(table)
+
+
+def _interval(d: dict[str, Any]) -> str:
+    return f"{d['difference']:+.3f} [{d['low']:+.3f}, {d['high']:+.3f}]"
 
 
 if __name__ == "__main__":
