@@ -112,7 +112,8 @@ class Household:
             clean = self.wants(s.point)
             wanted = set(clean)
             if noisy:
-                wanted = {x for x in wanted if rng.random() >= self.skip}
+                # in order, so the same services are skipped in every run (a set's order is not)
+                wanted = {x for x in sorted(wanted) if rng.random() >= self.skip}
                 if rng.random() < self.whim:
                     # a whim: some service that would change something, not asked for by a rule
                     states = s.point.codes[n_f:]
