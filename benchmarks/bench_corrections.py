@@ -37,9 +37,10 @@ sys.path.insert(0, str(Path(__file__).parent))
 from homes import home_text
 
 from homecog.evaluation.households import Household, make_household, oracle_predict
+from homecog.evaluation.leads import leads
 from homecog.evaluation.learn import learn_methods
 from homecog.evaluation.methods import METHODS, TreeMethod
-from homecog.evaluation.metrics import leads, prf
+from homecog.evaluation.metrics import prf
 from homecog.home import load_home
 from homecog.home.model import Home
 from homecog.knowledge.pipeline import ensure_policy
@@ -173,12 +174,14 @@ def main() -> None:
             cells = [f"{present[c][measure]:.4f}" if c in present else "-" for c in columns]
             if stream and "multi" in present:
                 lead, oracle = present["multi"]["lead"], present["multi"]["oracle"]
-                cells += [f"{_interval(lead)} ({lead['over']})", _interval(oracle)]
+                cells += [f"{_interval(lead)} ({lead['over']})" if lead else "-", _interval(oracle)]
             table.add_row(row["household"], *cells)
         Console().print(table)
 
 
 def _interval(d: dict[str, Any]) -> str:
+    if d["low"] is None:
+        return f"{d['difference']:+.3f} [too few events]"
     return f"{d['difference']:+.3f} [{d['low']:+.3f}, {d['high']:+.3f}]"
 
 

@@ -2,16 +2,17 @@
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from homecog.evaluation.metrics import f1_difference, prf
+from homecog.evaluation.leads import MIN_EVENTS, f1_difference, leads
+from homecog.evaluation.metrics import prf
 
 event = st.tuples(st.integers(0, 3), st.integers(0, 3), st.integers(0, 3)).map(
     lambda t: (min(t[0], t[1], t[2]), t[1], t[2])  # hits never exceed what was said or wanted
 )
-pairs = st.lists(st.tuples(event, event), min_size=1, max_size=60)
 
 
 def micro_f1(events):
@@ -19,7 +20,7 @@ def micro_f1(events):
 
 
 @settings(max_examples=40, deadline=None)
-@given(pairs)
+@given(st.lists(st.tuples(event, event), min_size=MIN_EVENTS, max_size=80))
 def test_the_difference_is_the_two_micro_f1s_and_antisymmetric(rows):
     a, b = [r[0] for r in rows], [r[1] for r in rows]
     d = f1_difference(a, b, resamples=200)
@@ -28,6 +29,17 @@ def test_the_difference_is_the_two_micro_f1s_and_antisymmetric(rows):
     # the same draws for both orders: the interval turns over exactly
     e = f1_difference(b, a, resamples=200)
     assert (e.difference, e.low, e.high) == pytest.approx((-d.difference, -d.high, -d.low), abs=1e-12)
+
+
+@settings(max_examples=20, deadline=None)
+@given(st.lists(st.tuples(event, event), min_size=0, max_size=MIN_EVENTS - 1))
+def test_too_few_events_give_the_difference_and_no_interval(rows):
+    a, b = [r[0] for r in rows], [r[1] for r in rows]
+    d = f1_difference(a, b)
+    assert d.difference == pytest.approx(micro_f1(a) - micro_f1(b), abs=1e-12)
+    assert (d.low, d.high) == (None, None)
+    assert d.as_dict() == {"difference": round(d.difference, 6), "low": None, "high": None}
+    assert str(d).endswith("[too few events]")
 
 
 def test_a_clear_lead_and_chance():
@@ -44,6 +56,26 @@ def test_a_clear_lead_and_chance():
     assert str(d).startswith("+0.400 [+0.")
 
 
-def test_lengths_must_agree():
+def test_the_draws_are_paired():
+    """a is right on one event more than b and the same elsewhere: drawn in pairs, a is never
+    behind in any draw, so the interval never goes below 0 — drawn apart, it would."""
+    rng = np.random.default_rng(1)
+    common = [(int(h), 1, 1) for h in rng.integers(0, 2, 99)]
+    a, b = [(1, 1, 1), *common], [(0, 1, 1), *common]
+    d = f1_difference(a, b)
+    assert d.difference == pytest.approx(0.01) and d.low >= 0 and d.high > 0
+
+
+def test_arrays_and_lists_agree_and_lengths_must_agree():
+    a = [(1, 1, 1)] * 15 + [(0, 2, 1)] * 15
+    b = [(1, 2, 1)] * 20 + [(0, 0, 1)] * 10
+    assert f1_difference(a, b) == f1_difference(np.array(a, dtype=np.int32), np.array(b))
     with pytest.raises(ValueError, match="3 events for one method, 2 for the other"):
         f1_difference([(0, 0, 0)] * 3, [(0, 0, 0)] * 2)
+
+
+def test_leads_need_the_base_method():
+    counts = {"frequency": [(1, 1, 1)] * 30, "naive_bayes": [(0, 1, 1)] * 30}
+    assert leads(counts) == {}
+    versus = leads(counts, base="frequency")
+    assert list(versus) == ["naive_bayes"] and versus["naive_bayes"].difference == pytest.approx(1.0)

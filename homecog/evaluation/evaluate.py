@@ -4,7 +4,7 @@ Quality (SPEC §9) is micro precision Σ|p∩t|/Σ|p|, recall Σ|p∩t|/Σ|t|, t
 exact-match rate, plus the same averaged over scenarios and a per-service table.
 
 Beside every method, multi's F1 minus its own with a 95 % paired bootstrap interval over the
-scenarios (:func:`homecog.evaluation.metrics.leads`).
+scenarios (:func:`homecog.evaluation.leads.leads`).
 
 Development over time: a simulated user whose wishes are a *truth* home corrects the robot
 after each of K scenarios, through the same path as ``homecog correct`` and the HMI (the
@@ -21,7 +21,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from homecog.evaluation import metrics
+from homecog.evaluation.leads import Difference, event_counts, leads
 from homecog.evaluation.learn import EvaluationError, learn_methods
 from homecog.evaluation.methods import METHODS, Method, TreeMethod
 from homecog.evaluation.scenarios import random_scenarios
@@ -55,8 +58,8 @@ class MethodResult:
     per_service: dict[str, dict[str, float]]
     seconds: float
     predictions: list[list[str]] = field(default_factory=list, repr=False)
-    # per scenario: (hits, predicted, true)
-    counts: list[tuple[int, int, int]] = field(default_factory=list, repr=False)
+    # per scenario: (hits, predicted, true), an array of n × 3
+    counts: np.ndarray = field(default_factory=lambda: np.zeros((0, 3), dtype=np.int32), repr=False)
 
     def as_dict(self) -> dict[str, Any]:
         return {
@@ -82,7 +85,7 @@ def evaluate(method: Method, scenarios: Sequence[Scenario], services: Sequence[s
         per_service=per_service,
         seconds=seconds,
         predictions=predicted,
-        counts=metrics.event_counts(predicted, truths),
+        counts=event_counts(predicted, truths),
     )
 
 
@@ -146,13 +149,13 @@ class EvalReport:
     home: str
     truth: str
     skipped: dict[str, str] = field(default_factory=dict)
-    _versus: dict[str, metrics.Difference] | None = field(default=None, repr=False)
+    _versus: dict[str, Difference] | None = field(default=None, init=False, compare=False, repr=False)
 
-    def versus(self) -> dict[str, metrics.Difference]:
+    def versus(self) -> dict[str, Difference]:
         """Per other method: multi's micro F1 minus its own, with a 95 % paired bootstrap
         interval over the scenarios (empty without multi)."""
         if self._versus is None:
-            self._versus = metrics.leads({k: m.counts for k, m in self.methods.items()})
+            self._versus = leads({k: m.counts for k, m in self.methods.items()})
         return self._versus
 
     def as_dict(self) -> dict[str, Any]:

@@ -14,15 +14,19 @@ the events' chance, and the interval says so.
 from __future__ import annotations
 
 import time
+from array import array
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from homecog.evaluation.baselines import BASELINES, OnlineMethod
+from homecog.evaluation.leads import Difference, leads
 from homecog.evaluation.learn import Learned, learn_methods
 from homecog.evaluation.methods import METHODS, HoeffdingMethod, TreeMethod
-from homecog.evaluation.metrics import Difference, leads, prf
+from homecog.evaluation.metrics import prf
 from homecog.home.model import Home
 from homecog.home.scenario_file import Scenario, load_scenarios
 from homecog.knowledge.pipeline import ensure_policy
@@ -39,9 +43,9 @@ class ReplayResult:
     running: dict[str, list[tuple[int, float, float, float]]]  # (events, precision, recall, f1)
     seconds: float
     skipped: dict[str, str] = field(default_factory=dict)
-    # per method, per event: (hits, predicted, true)
-    counts: dict[str, list[tuple[int, int, int]]] = field(default_factory=dict, repr=False)
-    _versus: dict[str, Difference] | None = field(default=None, repr=False)
+    # per method, per event: (hits, predicted, true), an array of n × 3
+    counts: dict[str, np.ndarray] = field(default_factory=dict, repr=False)
+    _versus: dict[str, Difference] | None = field(default=None, init=False, compare=False, repr=False)
 
     def versus(self, base: str = "multi") -> dict[str, Difference]:
         """Per other method: ``base``'s F1 minus its F1, with a 95 % paired bootstrap interval
@@ -119,13 +123,13 @@ def replay_rows(
     every = max(1, len(rows) // points)
     totals = {name: [0, 0, 0] for name in learned}  # hits, predicted, true
     running: dict[str, list[tuple[int, float, float, float]]] = {name: [] for name in learned}
-    counts: dict[str, list[tuple[int, int, int]]] = {name: [] for name in learned}
+    counts = {name: array("i") for name in learned}  # hits, predicted, true per event, flat
     for i, row in enumerate(rows, start=1):
         for name, method in learned.items():
             answer = method.predict_one(row.point)
             predicted, truth = set(answer), row.truth_for(answer)
             event = (len(predicted & truth), len(predicted), len(truth))
-            counts[name].append(event)
+            counts[name].extend(event)
             t = totals[name]
             for k in range(3):
                 t[k] += event[k]
@@ -144,5 +148,5 @@ def replay_rows(
         running=running,
         seconds=time.perf_counter() - start,
         skipped=learning.skipped,
-        counts=counts,
+        counts={name: np.frombuffer(c, dtype=np.int32).reshape(-1, 3) for name, c in counts.items()},
     )

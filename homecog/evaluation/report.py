@@ -9,17 +9,21 @@ from typing import Any
 #: The paper's Table 9 (%): precision, recall, F.
 PAPER_TABLE9 = {"Kmeans (paper)": (88.66, 84.57, 86.57), "Sarsa+IHDR (paper)": (98.21, 90.26, 94.07)}
 #: The heading of multi's lead over a method, and what it means.
-VERSUS = "multi − it [95 % interval]"
+VERSUS = "multi − it [95 %]"
 VERSUS_NOTE = (
     "multi − it: multi's F1 minus the method's, with a 95 % paired bootstrap interval over the "
-    "{over}; an interval that holds 0 cannot tell the two apart."
+    "{over}; an interval that holds 0 cannot tell the two apart (none under 20 {over})."
 )
 
 
 def _lead(result: dict[str, Any], name: str) -> str:
     """A method's cell of the VERSUS column: `` +0.021 [-0.010, +0.052] |``, or empty."""
     d = result.get("multi_minus", {}).get(name)
-    return f" {d['difference']:+.3f} [{d['low']:+.3f}, {d['high']:+.3f}] |" if d else " |"
+    if not d:
+        return " |"
+    if d["low"] is None:
+        return f" {d['difference']:+.3f} [too few events] |"
+    return f" {d['difference']:+.3f} [{d['low']:+.3f}, {d['high']:+.3f}] |"
 
 
 def _plt() -> Any:
