@@ -8,11 +8,12 @@ from pathlib import Path
 import pytest
 from webserver import LAYOUT, serve
 
+from homecog.context.manual import ManualSource
 from homecog.home import load_home_text
 from homecog.knowledge.pipeline import build
 from homecog.knowledge.store import Store
+from homecog.robot.runtime import Runtime
 from homecog.web.main import create_app
-from homecog.web.runtime import ManualSource, Runtime
 from homecog.web.settings import Settings
 
 STUDIO = Path(__file__).parent / "homes" / "studio.yaml"

@@ -177,8 +177,8 @@ def test_the_running_robot_acts_through_home_assistant(
 
     from homecog.knowledge.pipeline import build
     from homecog.knowledge.store import Store
+    from homecog.robot.runtime import Runtime
     from homecog.web.main import create_app
-    from homecog.web.runtime import Runtime
 
     home = source.home
     store = Store(f"sqlite:///{tmp_path / 'k.sqlite'}", home)

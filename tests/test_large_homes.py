@@ -145,9 +145,10 @@ def test_eval_on_a_large_home_says_which_baseline_it_left_out(rooms8: Home, monk
 def test_the_running_robot_serves_48_devices(rooms8: Home, built: tuple[Store, IHDRTree]):
     from fastapi.testclient import TestClient
 
+    from homecog.context.manual import ManualSource
+    from homecog.home.codec import json_context
+    from homecog.robot.runtime import Runtime
     from homecog.web.main import create_app
-    from homecog.web.models import json_context
-    from homecog.web.runtime import ManualSource, Runtime
 
     store, _ = built
     runtime = Runtime(home=rooms8, store=store, tree=store.load_tree(), source=ManualSource(rooms8))

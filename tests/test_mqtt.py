@@ -325,7 +325,7 @@ def test_the_running_robot_follows_the_broker_and_sends_each_command_once(broker
     """homecog up --mqtt in small: states in, the robot's IoT commands out, once per change."""
     from homecog.knowledge.pipeline import build
     from homecog.knowledge.store import Store
-    from homecog.web.runtime import Runtime
+    from homecog.robot.runtime import Runtime
 
     studio = load_home(Path(__file__).parent / "homes" / "studio.yaml")
     prefix = f"homecog_test_{secrets.token_hex(6)}"

@@ -22,14 +22,15 @@ from fleet_homes import home_text, write_homes
 from servers import fresh_database
 from webserver import copy_database, free_port, get, send
 
+from homecog.context.manual import ManualSource
 from homecog.fleet.serve import Fleet, FleetApp
 from homecog.fleet.train import learn_home, plan
 from homecog.home import Home
 from homecog.knowledge.database import make_engine
 from homecog.knowledge.ihdr import IHDRTree
 from homecog.knowledge.store import Store
+from homecog.robot.runtime import Runtime
 from homecog.web.main import create_app
-from homecog.web.runtime import ManualSource, Runtime
 from homecog.web.settings import Settings
 
 TOKEN = "fleet-token-1"

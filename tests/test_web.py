@@ -10,15 +10,16 @@ import pytest
 from fastapi.testclient import TestClient
 from webserver import LAYOUT
 
+from homecog.context.manual import ManualSource
 from homecog.errors import ContextError
 from homecog.home import load_home_text
+from homecog.home.codec import json_context
 from homecog.knowledge.pipeline import build
 from homecog.knowledge.store import Store
 from homecog.planning.acting import Failure
+from homecog.robot.runtime import Runtime
 from homecog.web.fastpath import MAX_BODY
 from homecog.web.main import create_app
-from homecog.web.models import json_context
-from homecog.web.runtime import ManualSource, Runtime
 from homecog.web.settings import Settings
 
 STUDIO = Path(__file__).parent / "homes" / "studio.yaml"
@@ -301,11 +302,14 @@ def test_the_robot_acts_through_the_planner_and_replans_a_failed_switch(built, c
         ("speak", "bring tea"),
     ]
     assert source.snapshot()["desk_lamp"] == "on" and source.snapshot()["radio"] == "on"
-    assert rt.body.world.robot == "desk" and rt.body.simulation.result().actions == result.done
+    assert rt.actor.body.world.robot == "desk" and rt.actor.body.simulation.result().actions == result.done
     assert "plan 1: ('switch_iot', 'radio', 'on') failed: ContextError: the broker is gone" in caplog.messages
     # once per change of the home, and an errand once while it stays proposed
     assert rt.act(now, ["LampOn", "RadioOn", "BringTea"]) is None
     assert rt.act(source.snapshot(), ["LampOn", "RadioOn", "BringTea"]) is None
+    # nor does it switch its own switch back while the user's situation is the same
+    assert rt.act(source.snapshot(), ["LampOff"]) is None and rt.actor.skipped_settling
+    source.set_context({"activity": "sleep" if source.snapshot()["activity"] != "sleep" else "relax"})
     assert rt.act(source.snapshot(), ["LampOff"]).done == [
         ("move", "desk", "studio"),
         ("switch_by_hand", "desk_lamp", "off"),
@@ -320,7 +324,7 @@ def test_a_switch_that_keeps_failing_is_logged_not_raised(built, caplog):
     source = BrokenBroker(home)
     source.set_context({"time": "10:00", "light": "50", "activity": "relax"})
     rt = Runtime(home=home, store=store, tree=store.load_tree(), source=source)
-    assert rt.body is None  # no simulated robot: IoT switches only
+    assert rt.actor.body is None  # no simulated robot: IoT switches only
     result = rt.act(source.snapshot(), ["RaiseBlind", "RadioOn", "LampOn", "BringTea"])
     assert result.tasks == [("RaiseBlind",), ("RadioOn",)]  # the lamp and the tea need a body
     assert result.done == [("switch_iot", "blind", "on")] and not result.achieved

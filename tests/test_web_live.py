@@ -16,13 +16,14 @@ from fastapi.testclient import TestClient
 from servers import fresh_database, server_url
 from webserver import build_studio, copy_database, get, homecog_up, send, serve
 
+from homecog.context.manual import ManualSource
 from homecog.errors import ContextError
 from homecog.home import load_home
+from homecog.home.codec import json_context
 from homecog.knowledge.pipeline import build
 from homecog.knowledge.store import Store
+from homecog.robot.runtime import Runtime
 from homecog.web.main import create_app
-from homecog.web.models import json_context
-from homecog.web.runtime import ManualSource, Runtime
 from homecog.web.settings import Settings
 
 WORK = {"time": "10:00", "light": 50, "activity": "work", "blind": "off", "desk_lamp": "off", "radio": "off"}
@@ -170,6 +171,7 @@ def test_the_event_stream_takes_the_token_as_a_query_parameter(studio, tmp_path)
                 "want": ["LampOn"],
                 "added": [],
                 "rejected": ["RaiseBlind", "BringTea"],
+                "kind": "explicit",
             }
     runtime.store.close()
 
@@ -196,7 +198,7 @@ def test_homecog_up_takes_a_brokers_retained_states_that_come_at_once(studio, tm
 
     from homecog.cli.main import main
     from homecog.context import mqtt
-    from homecog.web.runtime import Runtime as RuntimeClass
+    from homecog.robot.runtime import Runtime as RuntimeClass
 
     home_path, db = studio
     url = copy_database(db, tmp_path / "k.sqlite")

@@ -68,11 +68,12 @@ def up(
 
     import uvicorn
 
+    from homecog.context.manual import ManualSource
     from homecog.context.simulated import SimulatedHome
     from homecog.knowledge.pipeline import open_tree
     from homecog.knowledge.store import Store, redact
+    from homecog.robot.runtime import Runtime
     from homecog.web.main import create_app
-    from homecog.web.runtime import ManualSource, Runtime
     from homecog.web.settings import Settings
 
     if token is not None and len(token) < 8:

@@ -17,7 +17,7 @@ from collections.abc import Callable, Mapping
 from datetime import datetime
 from typing import Any
 
-from homecog.context import ConnectedSource
+from homecog.context import ConnectedSource, DeviceChange
 from homecog.errors import ContextError
 from homecog.home.clock import format_clock
 from homecog.home.home_assistant import DeviceEntity, FeatureEntity, feature_value
@@ -39,6 +39,7 @@ class EntityReadings(ConnectedSource):
     _said: dict[str, str]  # name -> the last skip logged, so a stuck state logs once
     _dirty: bool  # a value changed since on_change was last called
     _lock: threading.Lock
+    _device_names: frozenset[str]
 
     def missing(self) -> list[str]:
         """The features and devices without a value yet, in the home's order."""
@@ -106,9 +107,31 @@ class EntityReadings(ConnectedSource):
             if updated and updated < self._updated.get(entity, ""):
                 return  # older than what was taken: an event overtaken by the snapshot
             self._updated[entity] = updated
-            self._dirty |= any(self._values.get(n) != v for n, v in accepted.items())
+            changed = {n: v for n, v in accepted.items() if self._values.get(n) != v}
+            complete = all(n in self._values for n in self._names)
+            before = dict(self._values) if complete else None
+            self._dirty |= bool(changed)
             self._values.update(accepted)
             self._changed.notify_all()
+        if before is not None:
+            self._tell_devices(changed, before, state.get("context") or {}, received)
+
+    def _tell_devices(
+        self, changed: Mapping[str, str], values: dict[str, str], context: Mapping[str, Any], at: float
+    ) -> None:
+        """Tell the listeners of each device that changed, with who changed it: the user of the
+        state's context, an automation where the context has a parent."""
+        now = datetime.now()
+        clock = format_clock(now.hour + now.minute / 60)
+        before = {**values, **dict.fromkeys(self._clocks, clock)}
+        order = self.home.feature_names + self.home.device_names
+        for name, value in changed.items():
+            if name in self._device_names:
+                snapshot = {n: before[n] for n in order}
+                user = context.get("user_id")
+                automation = context.get("parent_id") is not None
+                self._tell(DeviceChange(name, value == "on", snapshot, at, user, automation))
+                before[name] = value
 
     def _notify(self) -> None:
         with self._lock:

@@ -119,6 +119,7 @@ class HomeAssistantSource(HomeAssistantConnection):
         mapped = {f.feature for f in self.mapping.features}
         self._clocks = [f.name for f in home.features if f.kind == "clock" and f.name not in mapped]
         self._names = [n for n in home.feature_names + home.device_names if n not in self._clocks]
+        self._device_names = frozenset(home.device_names)
         self._values: dict[str, str] = {}
         self._updated: dict[str, str] = {}  # entity -> last_updated of the state taken
         self._said: dict[str, str] = {}  # name -> the last skip logged, so a stuck state logs once

@@ -16,7 +16,7 @@ from typing import Any
 
 import paho.mqtt.client as mqtt
 
-from homecog.context import ConnectedSource
+from homecog.context import ConnectedSource, DeviceChange
 from homecog.context.mqtt_broker import (
     CONNECT_TIMEOUT,
     DEFAULT_PREFIX,
@@ -71,6 +71,7 @@ class MqttSource(ConnectedSource):
         self.address = parse_url(url)  # a bad URL fails here, before anything starts
         self.rejected = 0
         self._names = home.feature_names + home.device_names
+        self._devices = set(home.device_names)
         self._values: dict[str, str] = {}
         self._lock = threading.Lock()
         self._changed = threading.Condition(self._lock)
@@ -198,19 +199,34 @@ class MqttSource(ConnectedSource):
                 self._reject(topic, value, str(e))
         with self._changed:
             changed = {n: v for n, v in accepted.items() if self._values.get(n) != v}
+            was_complete = all(n in self._values for n in self._names)
+            before = {n: self._values[n] for n in self._names} if was_complete else None
             self._values.update(changed)
-            complete = all(n in self._values for n in self._names)
+            complete = was_complete or all(n in self._values for n in self._names)
             snapshot = {n: self._values[n] for n in self._names} if complete else None
             if changed:
                 self._changed.notify_all()
         if changed:
             log.debug("MQTT context %s", changed)
+            self._tell_devices(changed, before)
         if changed and snapshot is not None and self.on_change is not None:
             try:
                 self.on_change(snapshot)
             except Exception:
                 log.exception("MQTT on_change callback failed")
         return bool(changed)
+
+    def _tell_devices(self, changed: Mapping[str, str], before: dict[str, str] | None) -> None:
+        """Tell the listeners of each device that changed (a device's first value is no change)."""
+        at = self.clock()
+        for name, value in changed.items():
+            if name in self._devices and before is not None:
+                self._tell(DeviceChange(name, value == "on", before, at))
+                before = {**before, name: value}
+
+    def status(self) -> dict[str, Any]:
+        """The connection as the HMI shows it."""
+        return {"kind": "mqtt", "connected": self.connected}
 
     def _reject(self, topic: str, payload: object, why: str) -> None:
         with self._lock:

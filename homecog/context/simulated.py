@@ -4,7 +4,8 @@ The user follows the home's routine (:mod:`homecog.home.routine`): where they ar
 they do comes from the step that holds, and the devices a step ``set`` s are switched when it
 starts. Temperature and illumination come from a typical year of real weather and the devices
 (:mod:`homecog.context.weather`). Devices keep their state until the robot (:meth:`switch`) or
-the user switches them. Nothing runs by itself: the caller moves the clock with
+the user switches them; every device change is told to the listeners (:meth:`listen`) with
+the context just before it. Nothing runs by itself: the caller moves the clock with
 :meth:`SimulatedHome.advance` (the web server calls ``advance(real_elapsed * speed)``), so a
 test can step through a day deterministically.
 
@@ -32,12 +33,14 @@ from datetime import datetime, timedelta
 
 import numpy as np
 
+from homecog.context import ChangeNotifier, DeviceChange, Origin
 from homecog.context.weather import Weather, clamp, numeric_readings
 from homecog.errors import ContextError
 from homecog.home.codec import normalize
 from homecog.home.model import Home, format_number
 from homecog.home.routine import Routine, Step, default_routine
 
+_EPOCH = datetime(1970, 1, 1)
 DEFAULT_START = "2021-06-21 06:00"  # midsummer: warm days, cool nights, long daylight
 TEMPERATURE_NOISE = 0.2  # °C, standard deviation of the thermometer
 ILLUMINATION_NOISE = 0.02  # relative standard deviation of the light sensor
@@ -54,7 +57,7 @@ def _parse_start(start: datetime | str) -> datetime:
         ) from None
 
 
-class SimulatedHome:
+class SimulatedHome(ChangeNotifier):
     """A home whose user lives the routine under typical-year weather.
 
     Parameters
@@ -67,15 +70,27 @@ class SimulatedHome:
         The simulated date and time to start at (local standard time of the weather file).
     seed
         Seeds the sensor noise on temperature and illumination; same seed, same snapshots.
+    routine_switches
+        Whether the routine's steps switch the devices they ``set`` (a simulated household
+        that switches by its own wishes instead sets this false).
     """
 
+    ready = True
+
     def __init__(
-        self, home: Home, *, speed: float = 60.0, start: datetime | str = DEFAULT_START, seed: int = 0
+        self,
+        home: Home,
+        *,
+        speed: float = 60.0,
+        start: datetime | str = DEFAULT_START,
+        seed: int = 0,
+        routine_switches: bool = True,
     ) -> None:
         self.home = home
         self.speed = speed
         self.start = start
         self.seed = seed
+        self.routine_switches = routine_switches
         routine = home.routine
         self._routine: Routine = routine if isinstance(routine, Routine) else default_routine(home.features)
         self._now = _parse_start(start)
@@ -86,7 +101,7 @@ class SimulatedHome:
         steps = self._routine.steps
         current = self._routine.index_at(self._hours)
         for k in range(current + 1, current + 1 + len(steps)):
-            self._apply(steps[k % len(steps)])
+            self._apply(steps[k % len(steps)], tell=False)
 
     # -- the clock -------------------------------------------------------------------
     @property
@@ -123,9 +138,24 @@ class SimulatedHome:
             self._apply(steps[k])
         self._now = end
 
-    def _apply(self, step: Step) -> None:
+    def clock(self) -> float:
+        """The simulated clock as seconds since 1970 (the clock as if it were UTC)."""
+        return (self._now - _EPOCH).total_seconds()
+
+    def _apply(self, step: Step, *, tell: bool = True) -> None:
+        if not self.routine_switches:
+            return
         for device, on in step.sets.items():
-            self._states[device] = on
+            self._set(device, on, "home" if tell else None)
+
+    def _set(self, device: str, on: bool, origin: Origin | None) -> None:
+        """Switch a device; tell the listeners (``origin`` None: nobody is told)."""
+        if self._states[device] == on:
+            return
+        before = self.snapshot() if origin is not None and getattr(self, "_listeners", None) else None
+        self._states[device] = on
+        if before is not None:
+            self._tell(DeviceChange(device, on, before, self.clock(), origin=origin))  # type: ignore[arg-type]
 
     # -- the protocol ----------------------------------------------------------------
     def snapshot(self) -> dict[str, str]:
@@ -154,12 +184,16 @@ class SimulatedHome:
         return out
 
     def switch(self, device: str, on: bool) -> None:
-        """The robot's IoT command: switch ``device`` on or off."""
+        """Switch ``device`` on or off: the robot's IoT command, or a hand in the simulated home
+        (the running robot tells which by what it commanded)."""
         if device not in self._states:
             raise ContextError(
                 f"unknown device {device!r}; expected one of {', '.join(self.home.device_names)}"
             )
-        self._states[device] = bool(on)
+        self._set(device, bool(on), "home")
+
+    def status(self) -> dict[str, object]:
+        return {"kind": "simulated", "connected": True}
 
     # -- manual mode -----------------------------------------------------------------
     @property
@@ -183,7 +217,8 @@ class SimulatedHome:
             else:
                 overrides[name] = written
         self._overrides.update(overrides)
-        self._states.update(states)
+        for device, on in states.items():
+            self._set(device, on, "manual")
 
     def resume(self) -> None:
         """Leave manual mode: the features follow the routine, the clock and the weather again."""

@@ -34,6 +34,7 @@ from sqlalchemy import select
 from sqlalchemy.engine import Connection
 from sqlalchemy.exc import DBAPIError, SQLAlchemyError
 
+from homecog.context.manual import ManualSource
 from homecog.errors import FleetError, HomecogError, StoreError, UnknownHomeError
 from homecog.fleet.schema import FLEET_SCHEMA, HOME_SCHEMA, PREFIX, fleet_schema, prefixed
 from homecog.home.loader import load_home_text
@@ -41,7 +42,7 @@ from homecog.knowledge.database import db_message, make_engine
 from homecog.knowledge.schema import HomeRow
 from homecog.knowledge.store import Store, migrate
 from homecog.knowledge.store_log import stored_homes
-from homecog.web.runtime import ManualSource, Runtime
+from homecog.robot.runtime import Runtime
 from homecog.web.settings import Settings
 
 READ = ("GET", "HEAD")  # the methods of the list of homes and of the schemas

@@ -242,3 +242,32 @@ def normalize(home: Home, name: str, value: object) -> str:
     raise ContextError(
         f"unknown feature or device {name!r}; expected {', '.join(home.feature_names + home.device_names)}"
     )
+
+
+def json_context(home: Home, values: Mapping[str, object]) -> dict[str, str | float]:
+    """Context values as the contract writes them (the clock ``HH:MM``, numbers as numbers,
+    devices ``on``/``off``), from text as a context source or a scenario file has them.
+    Raises :class:`~homecog.errors.ContextError` (or ``ValueError``) for a value that does not fit.
+
+    >>> from homecog.home import load_home
+    >>> json_context(load_home("paper"), {"time": "7:05", "temperature": "25", "lamp": "ON"})
+    {'time': '07:05', 'temperature': 25.0, 'lamp': 'on'}
+    """
+    out: dict[str, str | float] = {}
+    for name, value in values.items():
+        kind = _kind(home, name)
+        if kind == "clock":
+            out[name] = format_clock(parse_clock(value))  # type: ignore[arg-type]
+        elif kind == "numeric":
+            out[name] = float(home.feature(name).parse(value))
+        elif kind == "device":
+            out[name] = "on" if parse_state(value, name) else "off"
+        else:
+            out[name] = str(value)
+    return out
+
+
+def _kind(home: Home, name: str) -> str:
+    if name in home.device_names:
+        return "device"
+    return home.feature(name).kind

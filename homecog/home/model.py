@@ -23,6 +23,7 @@ from typing import TYPE_CHECKING, Literal
 
 from homecog.errors import ContextError
 from homecog.home.clock import format_clock, parse_clock
+from homecog.home.household import Household
 from homecog.home.layout import Layout
 from homecog.home.states import parse_state
 
@@ -222,6 +223,7 @@ class Home:
     layout: Layout | None = None
     routine: object | None = None
     home_assistant: HomeAssistantMap | None = None  # where it lives in Home Assistant (SPEC §12)
+    household: Household = field(default_factory=Household)  # learning from people (§7.1)
     description: str | None = None
     source: str = "<memory>"
     content_hash: str = ""

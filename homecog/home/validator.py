@@ -17,6 +17,7 @@ from __future__ import annotations
 from homecog.home.content import content_hash
 from homecog.home.context_section import ContextSection
 from homecog.home.home_assistant import parse_home_assistant
+from homecog.home.household import parse_household
 from homecog.home.layout import parse_layout
 from homecog.home.model import Device, Home, Rewards, Service, format_number
 from homecog.home.routine import parse_routine
@@ -36,6 +37,7 @@ _SECTIONS = (
     "layout",
     "routine",
     "home_assistant",
+    "household",
 )
 _REQUIRED = ("name", "context", "devices", "services", "comfort")
 
@@ -92,6 +94,7 @@ class HomeValidator(ContextSection, RuleSections):
             layout=layout,
             routine=parse_routine(data.get("routine"), features, devices, self.fail),
             home_assistant=parse_home_assistant(data.get("home_assistant"), features, devices, self.fail),
+            household=parse_household(data.get("household"), self.fail),
             description=description,
             source=self.source,
         )

@@ -54,11 +54,19 @@ THRESHOLDS = (0.1, 0.15, 0.2, 0.25, 0.3, 0.35, 0.4, 0.45, 0.5)
 
 @dataclass(frozen=True)
 class Example:
-    """One correction as the layer keeps it: the context and the services wanted."""
+    """One correction as the layer keeps it: the context, the services wanted, the services it
+    speaks about (``None``: every one — a whole set; else only these, as an addition or a
+    rejection of one service does) and how many examples' worth it counts."""
 
     codes: tuple[int, ...]
     readings: tuple[float | None, ...]
     want: frozenset[int]
+    concerns: frozenset[int] | None = None
+    weight: int = 1
+
+    def speaks_of(self, a: int) -> bool:
+        """Whether the example says anything about service ``a``."""
+        return self.concerns is None or a in self.concerns
 
 
 class UserLayers:
@@ -133,9 +141,18 @@ class UserLayers:
     def items(self) -> Iterator[tuple[str, list[Example]]]:
         return iter(sorted(self._examples.items()))
 
-    def add(self, user: str, p: Point, want: frozenset[int]) -> None:
-        """A user's correction: the services ``want`` wanted at ``p``; counted at once."""
-        example = Example(p.codes, p.readings, frozenset(want))
+    def add(
+        self,
+        user: str,
+        p: Point,
+        want: frozenset[int],
+        *,
+        concerns: frozenset[int] | None = None,
+        weight: int = 1,
+    ) -> None:
+        """A user's correction: the services ``want`` wanted at ``p`` (of ``concerns``, or of
+        every service), counted ``weight`` times; counted at once."""
+        example = Example(p.codes, p.readings, frozenset(want), concerns, weight)
         examples = self._examples.setdefault(user, [])
         examples.append(example)
         if self._made_at.get(user) == self._version():
@@ -156,7 +173,7 @@ class UserLayers:
         else:
             shared, answers = self._shared(Point(codes, readings)), {}
         for a in range(len(self._effects)):
-            if not self.changes(a, codes):
+            if not self.changes(a, codes) or not example.speaks_of(a):
                 continue
             learner = learners.get(a)
             if learner is None:
@@ -164,10 +181,11 @@ class UserLayers:
                     self._n_features + 1, self._numeric, self.order, self._relevant(a)
                 )
             wanted = a in example.want
-            before = answers.get(a) or learner.decide(readings, codes, shared=a in shared)
-            if before.wanted + before.unwanted:
-                threshold.judge(before.share, wanted)
-            learner.add(readings, codes, wanted, shared=a in shared, ident=ident)
+            if example.concerns is None:  # a whole set: a fair sample of the user's answers
+                before = answers.get(a) or learner.decide(readings, codes, shared=a in shared)
+                if before.wanted + before.unwanted:
+                    threshold.judge(before.share, wanted)
+            learner.add(readings, codes, wanted, shared=a in shared, ident=ident, weight=example.weight)
         self._last = None
 
     def learners(self, user: str) -> dict[int, ServiceLearner]:

@@ -186,6 +186,7 @@ class ServiceLearner:
         # per example: readings, codes, wanted, the shared answer, the caller's id for it
         self._examples: list[tuple[Sequence[float | None], Sequence[int], bool, bool, int]] = []
         self._atoms: list[tuple[Atom, ...]] = []
+        self._weights: list[int] = []  # per example, how many it counts as
         # per key (by position in self.keys): its cells' counts [wanted, unwanted, latest] and
         # its leave-one-out loss
         self._tables: list[dict[tuple[Atom, ...], list[int]]] = [{} for _ in self.keys]
@@ -229,13 +230,15 @@ class ServiceLearner:
         *,
         shared: bool,
         ident: int = 0,
+        weight: int = 1,
     ) -> None:
         """Count one example: the service ``wanted`` or not in a context (``ident``: the
-        caller's name for it, given back by :meth:`members`)."""
+        caller's name for it, given back by :meth:`members`), as ``weight`` examples."""
         self._examples.append((readings, codes, wanted, shared, ident))
+        self._weights.append(weight)
         atoms = self.atoms(readings, codes, shared)
         self._atoms.append(atoms)
-        self._count(atoms, wanted, range(len(self.keys)))
+        self._count(atoms, wanted, range(len(self.keys)), weight)
         self._best = self._backoff = None
         n = len(self._examples)
         if n >= self._next_cut:
@@ -243,8 +246,8 @@ class ServiceLearner:
             self._recut()
 
     def _count(self, atoms: tuple[Atom, ...], wanted: bool, keys: Iterable[int], step: int = 1) -> None:
-        """Count an example in the cells of ``keys`` (``step`` −1: take it out again; a cell's
-        latest example is then left as it was)."""
+        """Count an example ``step`` times in the cells of ``keys`` (a negative ``step``: take it
+        out again; a cell's latest example is then left as it was)."""
         tables, loo, cell_of = self._tables, self._loo, self._cell
         for i in keys:
             cell = cell_of[i](atoms)
@@ -278,8 +281,8 @@ class ServiceLearner:
         for e, (readings, codes, wanted, shared, _) in enumerate(self._examples):
             atoms = self.atoms(readings, codes, shared)
             if atoms != self._atoms[e]:
-                self._count(self._atoms[e], wanted, keys, -1)
-                self._count(atoms, wanted, keys)
+                self._count(self._atoms[e], wanted, keys, -self._weights[e])
+                self._count(atoms, wanted, keys, self._weights[e])
                 self._atoms[e] = atoms
 
     def best_key(self) -> Key:

@@ -17,6 +17,7 @@ from __future__ import annotations
 import json
 from dataclasses import dataclass
 from datetime import UTC
+from typing import Any
 
 from sqlalchemy import func, select
 from sqlalchemy.exc import SQLAlchemyError
@@ -37,10 +38,14 @@ class Correction:
     want: list[str]
     added: list[str]
     rejected: list[str]
+    kind: str = "explicit"  # explicit, observed (a person's switch) or undo (of the robot's)
+    weight: int = 1
+    concerns: list[str] | None = None  # the services it speaks of (None: every one)
+    note: dict[str, Any] | None = None  # observed and undo: the device, the robot's action
 
     @property
     def predicted(self) -> list[str]:
-        """What the robot had proposed before the correction."""
+        """What the robot had proposed before the correction (of the services it concerns)."""
         return [s for s in self.want if s not in self.added] + self.rejected
 
     @property
@@ -102,6 +107,10 @@ def correction_history(store: Store, *, user: str | None = None, limit: int = 50
                 want=list(payload["want"]),
                 added=list(payload["added"]),
                 rejected=list(payload["rejected"]),
+                kind=payload.get("kind", "explicit"),
+                weight=int(payload.get("weight", 1)),
+                concerns=payload.get("concerns"),
+                note=payload.get("note"),
             )
         )
     return History(total=total, corrections=corrections)

@@ -295,9 +295,20 @@ class IHDRTree(ClusterUpdates, TreeSearch):
         self.n_experiences += len(codes)
 
     def correct_one(
-        self, x: Mapping[str, object] | Point, want: Sequence[str], user: str = "default"
+        self,
+        x: Mapping[str, object] | Point,
+        want: Sequence[str],
+        user: str = "default",
+        *,
+        concerns: Sequence[str] | None = None,
+        weight: int = 1,
     ) -> tuple[list[str], list[str]]:
         """A user's correction: the services they want in ``x``. Returns (added, rejected).
+
+        ``want`` is the whole set the user wants there, or, with ``concerns``, which of those
+        services they want (an addition: ``want=[S], concerns=[S]``; a rejection: ``want=[],
+        concerns=[S]``): the other services keep what they had. ``weight``: how many
+        corrections' worth it counts.
 
         It takes effect for that user's next cognition at once: it is counted as evidence, for
         every service it concerns, in that user's layer (:mod:`homecog.knowledge.corrections`).
@@ -306,10 +317,13 @@ class IHDRTree(ClusterUpdates, TreeSearch):
         """
         p = self.point(x)
         wanted = self._service_positions(want)
+        about = None if concerns is None else frozenset(self._service_positions(concerns))
+        if about is not None and not about.issuperset(wanted):
+            raise ContextError("a correction of some services wants only services it concerns")
         predicted = self._service_positions(self.predict_one(p, user))
         added = [a for a in wanted if a not in predicted]
-        rejected = [a for a in predicted if a not in wanted]
-        self._layers.add(user, p, frozenset(wanted))
+        rejected = [a for a in predicted if a not in wanted and (about is None or a in about)]
+        self._layers.add(user, p, frozenset(wanted), concerns=about, weight=weight)
         self.n_experiences += 1
         names = self.home.services
         return [names[a].name for a in added], [names[a].name for a in rejected]
@@ -379,7 +393,13 @@ class IHDRTree(ClusterUpdates, TreeSearch):
         """Apply a logged single sample or correction again (for rebuilds)."""
         point = Point(codes=tuple(payload["codes"]), readings=tuple(payload["readings"]))
         if kind == "correction":
-            self.correct_one(point, payload["want"], user or "default")
+            self.correct_one(
+                point,
+                payload["want"],
+                user or "default",
+                concerns=payload.get("concerns"),
+                weight=payload.get("weight", 1),
+            )
         else:
             self.learn_one(point, payload["services"], relevant=payload.get("relevant"))
 

@@ -68,10 +68,13 @@ def cluster_from_row(row: Any) -> Cluster:
 
 def example_from_payload(home: Home, payload: dict[str, Any]) -> Example:
     """A user's correction as their layer keeps it, from its ``experiences`` row."""
+    concerns = payload.get("concerns")
     return Example(
         codes=tuple(payload["codes"]),
         readings=tuple(payload["readings"]),
         want=frozenset(home.service_index(s) for s in payload["want"]),
+        concerns=None if concerns is None else frozenset(home.service_index(s) for s in concerns),
+        weight=int(payload.get("weight", 1)),
     )
 
 

@@ -45,6 +45,7 @@ from homecog.knowledge.database import (
     redact,
 )
 from homecog.knowledge.ihdr import IHDRTree
+from homecog.knowledge.kinds import EXPLICIT, Kind
 from homecog.knowledge.rows import (
     cluster_from_row,
     cluster_rows,
@@ -325,18 +326,22 @@ class Store(StoreLog):
             conn.execute(sqlite_insert(UserRow).values(values).on_conflict_do_nothing())
 
     def correct(
-        self, tree: IHDRTree, point: Point, want: list[str], user: str
+        self, tree: IHDRTree, point: Point, want: list[str], user: str, how: Kind | None = None
     ) -> tuple[list[str], list[str]]:
         """Apply and store a correction in one transaction; returns (added, rejected).
+
+        ``how``: where it came from (an explicit correction by default; one the robot saw the
+        household make by hand, or an undo of the robot's switch), which services it concerns
+        and its weight, logged with it (:class:`Kind`).
 
         A transaction the server aborts for a deadlock between concurrent corrections
         (MariaDB's locks on the users and clusters indexes) is run again.
         """
         if self._batch is not None:  # a conflict aborts the whole batch: nothing to retry here
-            return self._correct_once(tree, point, want, user)
+            return self._correct_once(tree, point, want, user, how or EXPLICIT)
         for attempt in range(CONFLICT_RETRIES):
             try:
-                return self._correct_once(tree, point, want, user)
+                return self._correct_once(tree, point, want, user, how or EXPLICIT)
             except ConflictError:
                 if attempt == CONFLICT_RETRIES - 1:
                     raise
@@ -344,7 +349,7 @@ class Store(StoreLog):
         raise AssertionError("unreachable")
 
     def _correct_once(
-        self, tree: IHDRTree, point: Point, want: list[str], user: str
+        self, tree: IHDRTree, point: Point, want: list[str], user: str, how: Kind
     ) -> tuple[list[str], list[str]]:
         if not user or len(user) > 200:
             raise StoreError("--user must be 1 to 200 characters")
@@ -353,7 +358,9 @@ class Store(StoreLog):
                 if user not in self._known_users:  # a row, once: the lock the correction takes
                     self._ensure_user(conn, user)
                 version = self._reload_user_if_stale(conn, tree, user, lock=True)
-                added, rejected = tree.correct_one(point, want, user)
+                added, rejected = tree.correct_one(
+                    point, want, user, concerns=how.concerns, weight=how.weight
+                )
                 payload = {
                     "context": tree.space.context(point),
                     "codes": list(point.codes),
@@ -361,6 +368,7 @@ class Store(StoreLog):
                     "want": want,
                     "added": added,
                     "rejected": rejected,
+                    **how.payload(),
                 }
                 keys = {"h": self.home.name, "u": user}
                 now = datetime.now(UTC).replace(tzinfo=None)

@@ -17,7 +17,7 @@ from fastapi import Depends, HTTPException, Request, Security
 from fastapi.security import APIKeyQuery, HTTPAuthorizationCredentials, HTTPBearer
 
 from homecog.knowledge.store import Store
-from homecog.web.runtime import Runtime
+from homecog.robot.runtime import Runtime
 from homecog.web.settings import Settings
 
 bearer = HTTPBearer(

@@ -17,7 +17,7 @@ from typing import Any
 from pydantic import BaseModel, ValidationError
 
 from homecog.errors import HomecogError
-from homecog.web.runtime import Runtime
+from homecog.robot.runtime import Runtime
 from homecog.web.settings import MAX_BODY
 
 __all__ = ["MAX_BODY", "BodyLimit", "CognizeFastPath"]

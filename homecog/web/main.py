@@ -9,7 +9,9 @@
 ``POST /api/corrections`` ``{"context": {...}, "want": [...], "user": ...}`` → added, rejected
 ``POST /api/plan``        ``{"services": [...], "context": {...}}`` → actions, tree, simulation
 ``GET /api/history``      corrections so far and how the robot's agreement with users grew
-``GET /api/events``       a live stream of server-sent events: context, correction
+``GET /api/actions``      what the robot did lately, when and why; what the household did
+``POST /api/actions/…``   ``/{id}/undo``: switch back what it did, learned as a rejection
+``GET /api/events``       a live stream of server-sent events: context, correction, action
 ========================  ===================================================================
 
 The schema is made for the served home (:mod:`homecog.web.models`). With a token every
@@ -29,12 +31,23 @@ from typing import Any
 from fastapi import FastAPI, Security
 from starlette.types import ASGIApp
 
+from homecog.robot.runtime import Runtime
 from homecog.web import errors
 from homecog.web.deps import require_token, require_token_or_query
 from homecog.web.fastpath import BodyLimit, CognizeFastPath
 from homecog.web.models import HomeModels
-from homecog.web.routes import cognize, context, corrections, events, history, home, page, plan, source
-from homecog.web.runtime import Runtime
+from homecog.web.routes import (
+    actions,
+    cognize,
+    context,
+    corrections,
+    events,
+    history,
+    home,
+    page,
+    plan,
+    source,
+)
 from homecog.web.settings import Settings
 
 #: The answers ``homecog serve`` itself gives on every operation of a home, before the home's
@@ -91,6 +104,7 @@ def create_app(runtime: Runtime, settings: Settings | None = None, *, fleet: boo
             CognizeFastPath(app, runtime, models.cognize_in, settings.token), limit=settings.max_body
         )
     app.include_router(source.router, **guarded)
+    app.include_router(actions.router, **guarded)
     if settings.token is not None:
         guarded = {
             "dependencies": [Security(require_token_or_query)],

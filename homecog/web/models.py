@@ -13,23 +13,18 @@ says. The same context comes back from ``GET /api/context``, so an answer can be
 ['table', 'sofa', 'bed', 'dining_table']
 >>> {k: v for k, v in schema["properties"]["illumination"].items() if k != "description"}
 {'minimum': 0.0, 'title': 'Illumination', 'type': 'number'}
->>> json_context(models.home, {"time": "7:05", "temperature": "25", "lamp": "ON"})
-{'time': '07:05', 'temperature': 25.0, 'lamp': 'on'}
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, Strict, create_model
 from typing_extensions import TypedDict
 
-from homecog.home.clock import format_clock, parse_clock
 from homecog.home.model import Feature, Home
-from homecog.home.states import parse_state
 
 # Decimal hours or HH:MM[:SS] from 00:00 to 24:00, ASCII digits. Every string it matches is
 # accepted by the home's own parser (homecog.home.model.parse_clock) with the same meaning;
@@ -214,6 +209,15 @@ class HistoryCorrectionOut(BaseModel):
     want: list[str] = Field(description="What the user wanted.")
     predicted: list[str] = Field(description="What the robot had proposed.")
     agreed: bool = Field(description="Whether the robot had proposed just that.")
+    kind: Literal["explicit", "observed", "undo"] = Field(
+        "explicit",
+        description="Told (the HMI, the API, the CLI), seen (a person switched by hand), or an undo "
+        "of the robot's switch.",
+    )
+    weight: int = Field(1, description="How many corrections' worth it counts.")
+    concerns: list[str] | None = Field(
+        None, description="The services it speaks of (null: all, the whole set wanted)."
+    )
 
 
 class AgreementOut(BaseModel):
@@ -298,28 +302,3 @@ def _feature_type(f: Feature) -> Any:
     return Annotated[
         float, Strict(), Field(allow_inf_nan=False, description=f"A number; bins {bins}", **bounds)
     ]
-
-
-def json_context(home: Home, values: Mapping[str, object]) -> dict[str, str | float]:
-    """Context values as the contract writes them (the clock ``HH:MM``, numbers as numbers,
-    devices ``on``/``off``), from text as a context source or a scenario file has them.
-    Raises :class:`~homecog.errors.ContextError` (or ``ValueError``) for a value that does not fit.
-    """
-    out: dict[str, str | float] = {}
-    for name, value in values.items():
-        kind = _kind(home, name)
-        if kind == "clock":
-            out[name] = format_clock(parse_clock(value))  # type: ignore[arg-type]
-        elif kind == "numeric":
-            out[name] = float(home.feature(name).parse(value))
-        elif kind == "device":
-            out[name] = "on" if parse_state(value, name) else "off"
-        else:
-            out[name] = str(value)
-    return out
-
-
-def _kind(home: Home, name: str) -> str:
-    if name in home.device_names:
-        return "device"
-    return home.feature(name).kind

@@ -30,7 +30,16 @@ def history(
     return HistoryOut(
         total=found.total,
         corrections=[
-            HistoryCorrectionOut(at=c.at, user=c.user, want=c.want, predicted=c.predicted, agreed=c.agreed)
+            HistoryCorrectionOut(
+                at=c.at,
+                user=c.user,
+                want=c.want,
+                predicted=c.predicted,
+                agreed=c.agreed,
+                kind=c.kind,
+                weight=c.weight,
+                concerns=c.concerns,
+            )
             for c in found.corrections
         ],
         agreement=[AgreementOut(n=a.n, user=a.user, agreed=a.agreed, rate=a.rate) for a in agreement(found)],

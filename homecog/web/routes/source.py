@@ -11,7 +11,6 @@ from homecog.web.deps import RuntimeDep
 from homecog.web.models import SourceOut
 
 router = APIRouter(tags=["context"])
-KINDS = {"SimulatedHome": "simulated", "ManualSource": "manual", "MqttSource": "mqtt"}
 
 
 @router.get("/api/source", response_model=SourceOut, response_model_exclude_none=True)
@@ -19,8 +18,4 @@ def get_source(runtime: RuntimeDep) -> Any:
     """Where the context comes from (``simulated``, ``manual``, ``mqtt``, ``home_assistant``)
     and whether it is connected now; Home Assistant adds its version, reconnections, the
     states skipped and the last error."""
-    status = getattr(runtime.source, "status", None)
-    if callable(status):
-        return status()
-    name = type(runtime.source).__name__
-    return {"kind": KINDS.get(name, name), "connected": bool(getattr(runtime.source, "connected", True))}
+    return runtime.source.status()

@@ -1,0 +1,194 @@
+"""A simulated household, and the robot and the household living days together (SPEC §7.1).
+
+The household acts by the wishes of a *truth* home (compatible with the robot's): whenever a
+device is not as the truth's comfort rules want it in the context now, a person switches it by
+hand once it has been so for :data:`DELAY` seconds. A person does not switch back their own
+switch while their situation is the same (a curtain opened because the room was dark is not
+closed again because the daylight it let in makes the room light). It never touches the HMI:
+the robot learns from its switches alone.
+
+The closed loop (:func:`closed_loop`) lets both live ``days`` simulated days in the home (its
+routine moves the user, typical-year weather the readings; the routine's own device switches
+are the household's, so they are left out) and counts, per day, the robot's switches, those the
+household switched back within the undo window, the household's own switches and the fights —
+the robot switching a device again that the household switched, in the same situation. Both
+counts are the household's own, not the robot's bookkeeping.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import asdict, dataclass, field
+from typing import Any
+
+from homecog.context import DeviceChange
+from homecog.context.simulated import DEFAULT_START, SimulatedHome
+from homecog.home.codec import Space
+from homecog.home.household import Household
+from homecog.home.model import Home
+from homecog.knowledge.ihdr import IHDRTree
+from homecog.knowledge.store import Store
+from homecog.robot.holds import situation
+
+#: how long a device stays other than the household wants before a person switches it (s)
+DELAY = 120.0
+#: the closed loop's tick (simulated seconds)
+STEP = 60.0
+
+
+@dataclass
+class Day:
+    """One simulated day of the closed loop."""
+
+    day: int
+    robot_switches: int = 0
+    reversed: int = 0
+    household_switches: int = 0
+    fights: int = 0
+
+
+@dataclass
+class SimulatedHousehold:
+    """People who switch by hand what is not as the truth home wants, after ``delay`` seconds.
+    It watches the home's changes (:meth:`seen`, a source listener) to count, on its own, what
+    the robot switched, what it switched back and any fight."""
+
+    truth: Home
+    source: SimulatedHome
+    undo_window: float = 900.0
+    delay: float = DELAY
+    today: Day = field(default_factory=lambda: Day(1))
+
+    def __post_init__(self) -> None:
+        self._space = Space(self.truth)
+        self._n = len(self.truth.features)
+        self._since: dict[str, float] = {}  # device -> not as wanted since
+        self._mine: tuple[str, bool] | None = None
+        self._robot: dict[str, tuple[bool, float]] = {}  # device -> the robot's last switch
+        # device -> the situation of our last switch of it and the state we set
+        self._ours: dict[str, tuple[tuple[str | None, ...], bool]] = {}
+        self.source.listen(self.seen)
+
+    def wishes(self, context: dict[str, str]) -> dict[str, bool]:
+        """The devices the household cares about now, and how it wants them."""
+        codes = self._space.point(context).codes[: self._n]
+        return {
+            d.name: w
+            for d, w in zip(self.truth.devices, self.truth.wanted(codes), strict=True)
+            if w is not None
+        }
+
+    def step(self) -> list[tuple[str, bool]]:
+        """Switch by hand what has not been as wanted for ``delay`` seconds; what was switched."""
+        now, context = self.source.clock(), self.source.snapshot()
+        wished = self.wishes(context)
+        where = situation(self.truth, context)
+        for device in [d for d, (w, _) in self._ours.items() if w != where]:
+            del self._ours[device]  # the situation moved on: that switch is in the past
+        done = []
+        for device in self.truth.device_names:
+            want = wished.get(device)
+            ours = self._ours.get(device)
+            if ours is not None and ours[1] == (context[device] == "on"):
+                want = None  # as we set it in this situation: we do not switch it back ourselves
+            if want is None or (context[device] == "on") == want:
+                self._since.pop(device, None)
+                continue
+            since = self._since.setdefault(device, now)
+            if now - since >= self.delay:
+                self._switch(device, want, context)
+                done.append((device, want))
+                self._since.pop(device, None)
+        return done
+
+    def _switch(self, device: str, on: bool, context: dict[str, str]) -> None:
+        self._mine = (device, on)
+        try:
+            self.source.switch(device, on)
+        finally:
+            self._mine = None
+        self.today.household_switches += 1
+        self._ours[device] = (situation(self.truth, context), on)
+        robot = self._robot.pop(device, None)
+        if robot is not None and robot[0] != on and self.source.clock() - robot[1] <= self.undo_window:
+            self.today.reversed += 1
+
+    def seen(self, change: DeviceChange) -> None:
+        """A change in the home: ours, or else the robot's (nobody else lives here)."""
+        if self._mine == (change.device, change.on):
+            return
+        self.today.robot_switches += 1
+        self._robot[change.device] = (change.on, change.at)
+        ours = self._ours.get(change.device)
+        if change.before is not None and ours is not None and ours[0] == situation(self.truth, change.before):
+            self.today.fights += 1
+
+
+def closed_loop(
+    home: Home,
+    truth: Home,
+    store: Store,
+    tree: IHDRTree,
+    *,
+    days: int,
+    household: Household | None = None,
+    start: str = DEFAULT_START,
+    seed: int = 0,
+    progress: Callable[[str], Any] | None = None,
+) -> dict[str, Any]:
+    """The robot (learning in ``tree``, logging to ``store``) and a household of ``truth``'s
+    wishes live ``days`` days in ``home``; per day what each did (:class:`Day`), and the
+    robot's own view of it at the end."""
+    from homecog.robot.runtime import Runtime
+
+    config = household or home.household
+    source = SimulatedHome(home, start=start, seed=seed, routine_switches=False)
+    runtime = Runtime(home=home, store=store, tree=tree, source=source, household=config)
+    people = SimulatedHousehold(truth, source, undo_window=config.undo_window)
+    out: list[Day] = []
+    began = time.perf_counter()
+    ticks = round(86400 / STEP)
+    for day in range(1, days + 1):
+        people.today = Day(day)
+        for _ in range(ticks):
+            runtime.tick(STEP)
+            people.step()
+        out.append(people.today)
+        if progress is not None:
+            d = people.today
+            progress(
+                f"day {day}: robot {d.robot_switches} switches ({d.reversed} undone), "
+                f"household {d.household_switches}, fights {d.fights}"
+            )
+    return {
+        "home": home.name,
+        "truth": truth.name,
+        "days": [asdict(d) for d in out],
+        "robot": runtime.status(),
+        "experiences": store.experience_count(),
+        "seconds": round(time.perf_counter() - began, 2),
+    }
+
+
+def summary(days: list[dict[str, Any]]) -> dict[str, float | None]:
+    """The figures of a closed loop: the household's switches a day over the last three days
+    as a share of day 1's, the share of the robot's switches undone over them, fights in all.
+
+    >>> d = [{"household_switches": 20, "robot_switches": 5, "reversed": 2, "fights": 0}] + [
+    ...     {"household_switches": 1, "robot_switches": 50, "reversed": 0, "fights": 0}] * 3
+    >>> summary(d)
+    {'last3_household_share': 0.05, 'last3_undone_share': 0.0, 'fights': 0}
+    """
+    last = days[-3:]
+    first = days[0]["household_switches"]
+    robot = sum(d["robot_switches"] for d in last)
+    per_day = sum(d["household_switches"] for d in last) / len(last)
+    return {
+        "last3_household_share": round(per_day / first, 4) if first else None,
+        "last3_undone_share": round(sum(d["reversed"] for d in last) / robot, 4) if robot else 0.0,
+        "fights": sum(d["fights"] for d in days),
+    }
+
+
+__all__ = ["Day", "SimulatedHousehold", "closed_loop", "summary"]

@@ -1,0 +1,295 @@
+"""The running robot: the home, its knowledge and a context source, put together for the HTTP
+routes and the closed loop. What happened (corrections, agreement) is read from the store's
+experience log (:mod:`homecog.knowledge.history`), so it outlives the process; what the robot
+did lately is in its journal.
+
+>>> from homecog.context.manual import ManualSource
+>>> from homecog.home import load_home
+>>> from homecog.knowledge.ihdr import IHDRTree
+>>> from homecog.knowledge.store import Store
+>>> home = load_home("paper")
+>>> runtime = Runtime(home=home, store=Store("sqlite://", home), tree=IHDRTree(home),
+...                   source=ManualSource(home))
+>>> runtime.source.switch("lamp", True)        # nobody commanded it: a person's switch
+>>> now = runtime.source.clock()
+>>> runtime.guidance.counts["observed"], runtime.holds.held("lamp", runtime.context(), at=now)
+(1, True)
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import orjson
+
+from homecog.context import ContextSource, DeviceChange, LivingSource, SettableSource
+from homecog.context.simulated import SimulatedHome
+from homecog.errors import ContextError, FixedContextError
+from homecog.home.codec import Space, json_context, parse_services
+from homecog.home.household import Household
+from homecog.home.model import Home, format_number
+from homecog.knowledge.ihdr import IHDRTree
+from homecog.knowledge.kinds import Kind
+from homecog.knowledge.store import Store
+from homecog.planning import Acting
+from homecog.robot.actor import Actor
+from homecog.robot.attribution import Attribution
+from homecog.robot.events import EventBus, tell_all
+from homecog.robot.guidance import Guidance
+from homecog.robot.holds import Holds
+from homecog.robot.journal import Journal
+
+log = logging.getLogger("homecog.robot")
+
+
+@dataclass
+class Runtime:
+    """Everything the routes share. Cognition and corrections hold ``lock``: the tree is not
+    thread-safe, FastAPI runs plain route functions (corrections) in a thread pool, a source
+    tells its changes on its own thread, and cognition runs on the event loop unless ``lock`` is
+    held (see ``CognizeFastPath``). ``household``: the home's own settings unless given."""
+
+    home: Home
+    store: Store
+    tree: IHDRTree
+    source: ContextSource
+    household: Household | None = None
+    lock: threading.Lock = field(default_factory=threading.Lock)
+    watchers: list[Callable[[dict[str, str]], object]] = field(default_factory=list)
+
+    def __post_init__(self) -> None:
+        self.household = self.household or self.home.household
+        self.space = Space(self.home)
+        self.bus = EventBus()
+        self.attribution = Attribution()
+        self.holds = Holds(self.home, hold=self.household.hold)
+        self.journal = Journal()
+        self.guidance = Guidance(self.home, self.household, self.journal, self._learn)
+        body = isinstance(self.source, SimulatedHome) and self.home.layout is not None
+        self.actor = Actor(
+            self.home,
+            self.source,
+            attribution=self.attribution,
+            holds=self.holds,
+            journal=self.journal,
+            body=body,
+        )
+        self.household_switches = 0  # device changes by people (and automations) seen
+        self._undone: set[int] = set()  # actions undone from the HMI
+        self.source.listen(self._changed)
+
+    @property
+    def acted(self) -> Acting | None:
+        """What the robot did last."""
+        return self.actor.acted
+
+    # -- context ------------------------------------------------------------------------------
+    def context(self) -> dict[str, str]:
+        """The context as the source has it, as text; :class:`ContextError` while a broker has not
+        sent every state yet."""
+        return self.source.snapshot()
+
+    def json_context(self) -> dict[str, str | float]:
+        """The context as the HTTP contract writes it (numbers as numbers)."""
+        return json_context(self.home, self.context())
+
+    def set_context(self, values: Mapping[str, object]) -> dict[str, str | float]:
+        """Manual mode: change some features or devices (valid values, as the contract checks
+        them); :class:`FixedContextError` when the source cannot be set by hand."""
+        if not isinstance(self.source, SettableSource):
+            raise FixedContextError("the context comes from a broker; it cannot be set by hand")
+        unknown = [k for k in values if k not in self.space.names]
+        if unknown:
+            raise ContextError(f"unknown feature or device {unknown[0]!r}")
+        typed = json_context(self.home, values)  # raises naming a value that does not fit
+        text = {k: format_number(v) if isinstance(v, float) else v for k, v in typed.items()}
+        self.space.point({**self.source.snapshot(), **text})  # the whole result must be valid
+        self.source.set_context(text)
+        self.publish("context", self.context())
+        return self.json_context()
+
+    # -- cognition, corrections, plans ---------------------------------------------------------
+    def cognize(self, context: Mapping[str, object], user: str) -> dict[str, Any]:
+        point = self.space.point(context)
+        with self.lock:
+            return self.tree.explain_one(point, user=user).as_dict()
+
+    def cognize_json(self, context: Mapping[str, object], user: str) -> bytes:
+        """:meth:`cognize` as JSON, the same object; orjson writes the dataclasses directly."""
+        point = self.space.point(context)
+        with self.lock:
+            answer = self.tree.explain_one(point, user=user)
+        return orjson.dumps(answer)
+
+    def correct(self, context: Mapping[str, object], want: list[str], user: str) -> dict[str, Any]:
+        """Learn and store an explicit correction; the store's log keeps it (and the history)."""
+        point = self.space.point(context)
+        wanted = parse_services(want, self.home)
+        with self.lock:
+            added, rejected = self.store.correct(self.tree, point, wanted, user)
+        experiences = self.store.experience_count()  # outside the lock: cognition need not wait
+        self.publish(
+            "correction",
+            {"user": user, "want": wanted, "added": added, "rejected": rejected, "kind": "explicit"},
+        )
+        return {"added": added, "rejected": rejected, "experiences": experiences, "user": user}
+
+    def _learn(self, context: Mapping[str, str], want: list[str], user: str, how: Kind) -> None:
+        """A correction the household's hands made (observed, undo): learned and logged."""
+        point = self.space.point(context)
+        with self.lock:
+            added, rejected = self.store.correct(self.tree, point, want, user, how)
+        log.info("learned %s for %s: %s wanted %s", how.kind, user, ", ".join(how.concerns or ()), bool(want))
+        self.publish(
+            "correction", {"user": user, "want": want, "added": added, "rejected": rejected, "kind": how.kind}
+        )
+
+    def plan(self, services: list[str], context: Mapping[str, object] | None) -> dict[str, Any]:
+        """The services decomposed into robot actions, in the given order, and the plan carried
+        out by the simulated robot on the floor plan: its timeline, time, distance and
+        trajectory (``[t, x, y]`` rows, at most 400). :class:`PlanningError` when it cannot be."""
+        from homecog.planning import plan_services
+        from homecog.simulation import simulate
+
+        where = dict(self.space.context(self.space.point(context))) if context else None
+        result = plan_services(self.home, services, context=where)
+        sim = simulate(self.home, result.actions, state=result.start)
+        simulation = sim.as_dict()
+        del simulation["actions"]  # the same as the plan's
+        simulation["trajectory"] = _thin(sim.trajectory, 400)
+        return {
+            "actions": [list(a) for a in result.actions],
+            "tree": [n.as_dict() for n in result.tree],
+            "simulation": simulation,
+        }
+
+    # -- the living home ------------------------------------------------------------------------
+    def tick(self, seconds: float, *, act: bool = True, user: str | None = None) -> bool:
+        """Let a simulated source live ``seconds`` of simulated time; then, if ``act``, the robot
+        carries out the services it proposes there for ``user`` (the household's default user).
+        True if the context changed."""
+        if not self.source.ready:  # a broker has not sent every state yet
+            return False
+        before = self.source.snapshot()
+        if isinstance(self.source, LivingSource):
+            self.source.advance(seconds)
+        if act:
+            self.act_now(user or self.household.default_user)
+        after = self.source.snapshot()
+        if after != before:
+            self.publish("context", after)
+        return after != before
+
+    def act_now(self, user: str) -> Acting | None:
+        """The robot acts on what it proposes for ``user`` in the context now."""
+        now = self.source.snapshot()
+        self.holds.observe(now)
+        point = self.space.point(now)
+        with self.lock:
+            proposed = self.tree.predict_one(point, user=user)
+        return self.act(now, proposed, user=user)
+
+    def act(self, now: Mapping[str, str], proposed: list[str], *, user: str | None = None) -> Acting | None:
+        """Carry out the proposed services that have something to do (:class:`Actor`); what was
+        done (``None``: nothing to do), the action also in the journal."""
+        who = user or self.household.default_user
+        action = self.actor.act(now, proposed, user=who, why=lambda todo: self._why(now, todo, who))
+        if action is None:
+            return None
+        self.publish("action", action.as_dict())
+        return self.actor.acted
+
+    def _why(self, now: Mapping[str, str], services: list[str], user: str) -> list[Any]:
+        point = self.space.point(now)
+        with self.lock:
+            answer = self.tree.explain_one(point, user=user).as_dict()
+        return [e for e in answer["explanations"] if e.get("service") in services]
+
+    def undo(self, action_id: int, user: str | None = None) -> dict[str, Any]:
+        """Undo the robot's action from the HMI: its switches switched back (as the robot's own
+        commands, then held for the person) and its services learned as rejections where it
+        acted. :class:`LookupError` for an action not in the journal, :class:`FixedContextError`
+        for one already undone."""
+        action = self.journal.get(action_id)
+        if action is None:
+            raise LookupError(f"no action {action_id} among the robot's latest")
+        if action.undone or action.id in self._undone:
+            raise FixedContextError(f"action {action_id} is undone already")
+        self._undone.add(action.id)
+        now = self.source.snapshot()
+        switched = []
+        for device, on in reversed(action.switches):
+            if now.get(device) == ("on" if on else "off"):
+                self.actor.switch(device, not on)
+                self.holds.hold(device, now, at=self.source.clock())
+                action.undone[device] = "hmi"
+                switched.append({"device": device, "state": "off" if on else "on"})
+        rejected = self.guidance.undo(action.id, user or action.user)
+        self.publish("context", self.context())
+        return {"action": action.id, "switched": switched, "rejected": rejected, "user": user or action.user}
+
+    def _changed(self, change: DeviceChange) -> None:
+        """A device changed in the home: whose, and what it teaches (on the source's thread)."""
+        who = self.attribution.whose(change)
+        if who in ("robot", "manual"):
+            return
+        if change.before is not None:
+            self.holds.hold(change.device, change.before, at=change.at)
+        self.household_switches += 1
+        self.guidance.person(change)
+
+    def status(self) -> dict[str, Any]:
+        """What the household did and the robot left alone, for the HMI."""
+        counts = dict(self.guidance.counts)
+        return {
+            "household_switches": self.household_switches,
+            "learned": {k: counts.get(k, 0) for k in ("observed", "undo")},
+            "ignored": {k: v for k, v in counts.items() if k not in ("observed", "undo")},
+            "fights": self.holds.fights,
+            "left_alone": self.actor.skipped_held,
+            "undo_window_minutes": self.household.undo_window / 60,
+            "hold_minutes": self.household.hold / 60,
+        }
+
+    # -- the live event stream -----------------------------------------------------------------
+    def subscribe(self) -> Any:
+        return self.bus.subscribe()
+
+    def unsubscribe(self, queue: Any) -> None:
+        self.bus.unsubscribe(queue)
+
+    def switch(self, device: str, on: bool) -> None:
+        """Switch a device of the home, as an IoT command from outside (a broker) does."""
+        self.source.switch(device, on)
+        self.publish("context", self.context())
+
+    def publish(self, kind: str, data: object) -> None:
+        """Send an event to every open stream, from any thread; a new context also goes to every
+        watcher."""
+        if kind == "context":
+            tell_all(self.watchers, data)  # type: ignore[arg-type]
+        if not self.bus.listening:
+            return
+        if kind == "context":
+            try:
+                data = json_context(self.home, data)  # type: ignore[arg-type]
+            except (ContextError, ValueError):
+                log.exception("a context that does not fit the home")
+                return
+        self.bus.send(kind, data)
+
+
+def _thin(trajectory: np.ndarray, most: int) -> list[list[float]]:
+    """At most ``most`` rows ``[t, x, y]`` of a trajectory, evenly spaced, first and last kept.
+
+    >>> _thin(np.array([[t, t, 0, 0] for t in range(10)], dtype=float), 4)
+    [[0.0, 0.0, 0.0], [3.0, 3.0, 0.0], [6.0, 6.0, 0.0], [9.0, 9.0, 0.0]]
+    """
+    n = len(trajectory)
+    keep = np.unique(np.linspace(0, n - 1, min(n, most)).round().astype(int)) if n else []
+    return [[round(float(t), 2), round(float(x), 3), round(float(y), 3)] for t, x, y, *_ in trajectory[keep]]
