@@ -7,17 +7,20 @@ a fresh configuration folder with the entities of ``tests/homes/studio_ha.yaml``
 real devices switch, and an automation switches the radio when ``input_boolean.trigger`` turns
 on (a change with a parent context). :meth:`HomeAssistant.onboard` makes the owner, a person of
 the household, and :meth:`HomeAssistant.add_user` another user, the robot, each with a
-long-lived token, without a browser.
+long-lived token, without a browser; :class:`ServiceCalls` records every service call the
+instance carries out, and as whom.
 """
 
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import json
 import os
 import signal
 import socket
 import subprocess
+import threading
 import time
 import urllib.error
 import urllib.parse
@@ -273,3 +276,84 @@ class HomeAssistant:
                         return message["result"]
 
         return asyncio.run(run())
+
+
+class ServiceCalls:
+    """Every service call Home Assistant carries out, as its ``call_service`` events tell them,
+    recorded on a thread of its own (over a WebSocket of ``token``, an administrator's): each as
+    ``(domain.service, entity ids, the user id of the call's context)``.
+
+    ``with ServiceCalls(server, token) as calls: ...``; :meth:`by`: the calls of one user.
+    """
+
+    def __init__(self, server: HomeAssistant, token: str) -> None:
+        self.server = server
+        self.token = token
+        self.calls: list[tuple[str, tuple[str, ...], str | None]] = []
+        self._lock = threading.Lock()
+        self._ready = threading.Event()
+        self._error: BaseException | None = None
+        self._loop: asyncio.AbstractEventLoop | None = None
+        self._task: asyncio.Task[None] | None = None
+        self._thread = threading.Thread(target=self._run, name="ha-service-calls", daemon=True)
+
+    def __enter__(self) -> ServiceCalls:
+        self._thread.start()
+        if not self._ready.wait(10) or self._error is not None:
+            self.close()
+            raise RuntimeError(f"could not follow Home Assistant's service calls: {self._error}")
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def close(self) -> None:
+        loop, task = self._loop, self._task
+        if loop is not None and task is not None and not loop.is_closed():
+            with contextlib.suppress(RuntimeError):
+                loop.call_soon_threadsafe(task.cancel)
+        self._thread.join(10)
+
+    def count(self) -> int:
+        """How many calls have been recorded."""
+        with self._lock:
+            return len(self.calls)
+
+    def by(self, user_id: str, *, since: int = 0) -> list[tuple[str, tuple[str, ...]]]:
+        """The calls made as ``user_id`` (of those after the first ``since``), in order:
+        ``(domain.service, entity ids)``."""
+        with self._lock:
+            return [(s, e) for s, e, u in self.calls[since:] if u == user_id]
+
+    def _run(self) -> None:
+        with contextlib.suppress(asyncio.CancelledError):
+            asyncio.run(self._follow())
+
+    async def _follow(self) -> None:
+        self._loop, self._task = asyncio.get_running_loop(), asyncio.current_task()
+        try:
+            async with (
+                aiohttp.ClientSession() as session,
+                session.ws_connect(f"{self.server.url}/api/websocket") as ws,
+            ):
+                await ws.receive_json()  # auth_required
+                await ws.send_json({"type": "auth", "access_token": self.token})
+                if (answer := await ws.receive_json())["type"] != "auth_ok":
+                    raise RuntimeError(f"Home Assistant refused the token: {answer}")
+                await ws.send_json({"id": 1, "type": "subscribe_events", "event_type": "call_service"})
+                if not (await ws.receive_json()).get("success"):
+                    raise RuntimeError("Home Assistant refused the subscription to call_service")
+                self._ready.set()
+                async for message in ws:
+                    event = json.loads(message.data).get("event") or {}
+                    data = event.get("data") or {}
+                    entities = (data.get("service_data") or {}).get("entity_id") or []
+                    entities = [entities] if isinstance(entities, str) else entities
+                    call = f"{data.get('domain')}.{data.get('service')}"
+                    with self._lock:
+                        self.calls.append(
+                            (call, tuple(entities), (event.get("context") or {}).get("user_id"))
+                        )
+        except Exception as e:
+            self._error = e
+            self._ready.set()

@@ -6,7 +6,7 @@ import shutil
 from pathlib import Path
 
 import pytest
-from webserver import LAYOUT, serve
+from webserver import LAYOUT, get, send, serve
 
 from homecog.context.manual import ManualSource
 from homecog.home import load_home_text
@@ -21,24 +21,42 @@ CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
 SCREENSHOT = Path(__file__).parent.parent / "docs" / "hmi.png"
 
 
-@pytest.fixture(scope="module")
-def runtime(tmp_path_factory):
+def studio_runtime(directory: Path) -> Runtime:
+    """The studio home with a floor plan, its knowledge built, set by hand: work at 10:00, dim."""
     if CHROMIUM is None:
         pytest.skip("no chromium on this machine (Debian package chromium; .ci/run installs it)")
     pytest.importorskip("playwright.sync_api", reason="playwright is not installed")
     home = load_home_text(STUDIO.read_text() + LAYOUT, "studio.yaml")
-    store = Store(f"sqlite:///{tmp_path_factory.mktemp('hmi') / 'knowledge.sqlite'}", home)
+    store = Store(f"sqlite:///{directory / 'knowledge.sqlite'}", home)
     tree = build(home, store).tree
     runtime = Runtime(home=home, store=store, tree=tree, source=ManualSource(home))
     runtime.set_context({"time": "10:00", "light": 50, "activity": "work"})
+    return runtime
+
+
+@pytest.fixture(scope="module")
+def runtime(tmp_path_factory):
+    runtime = studio_runtime(tmp_path_factory.mktemp("hmi"))
     yield runtime
-    store.close()
+    runtime.store.close()
 
 
 @pytest.fixture(scope="module")
 def server(runtime):
     with serve(create_app(runtime)) as url:
         yield url, runtime
+
+
+@pytest.fixture
+def own_server(tmp_path):
+    """A runtime and server of the test's own: the robot acts and is undone there, which would
+    change what the module's runtime proposes to the other tests."""
+    runtime = studio_runtime(tmp_path)
+    try:
+        with serve(create_app(runtime)) as url:
+            yield url, runtime
+    finally:
+        runtime.store.close()
 
 
 def test_the_page_shows_live_context_and_takes_a_correction(server):
@@ -86,9 +104,18 @@ def test_the_page_shows_live_context_and_takes_a_correction(server):
         path = page.locator("#trajectory #path").get_attribute("points").split()
         (x0, y0), (x1, y1) = (map(float, path[0].split(",")), map(float, path[-1].split(",")))
         assert (x0, y0) == (1, 3) and abs(x1 - 2) < 0.05 and abs(y1 - 2) < 0.05  # y drawn downwards
+
+        # the robot raises the blind: what it did, when and why, comes live, with its undo
+        assert runtime.act(runtime.context(), ["RaiseBlind"]) is not None
+        acted = page.locator("#actions li").first
+        expect(acted.locator(".services")).to_have_text("RaiseBlind")
+        expect(acted.locator('[data-device="blind"]')).to_contain_text("blind → on")
+        expect(acted.locator("button.undo")).to_be_visible()
+        expect(page.locator('#context td[data-name="blind"]')).to_have_text("on")
         SCREENSHOT.parent.mkdir(exist_ok=True)
         page.screenshot(path=str(SCREENSHOT), full_page=True)
         browser.close()
+    runtime.set_context({"blind": "off"})  # as it was for the other tests (set by hand: not learned)
     assert SCREENSHOT.stat().st_size > 10_000
 
 
@@ -121,4 +148,105 @@ def test_off_loopback_the_page_asks_for_the_token_once_and_keeps_it(runtime):
         expect(page.locator("#status")).to_have_text("live")
         expect(page.locator("#home-name")).to_have_text("studio")
         assert len(asked) == 1
+        browser.close()
+
+
+def test_the_page_shows_what_the_robot_did_and_undoes_it(own_server):
+    """The robot's action in the panel (service, device, why) with an Undo: the blind switched
+    back, the undo learned as a correction of kind undo for the page's user, and no second undo;
+    a person's switch back within the undo window shows as undone by hand, live."""
+    from playwright.sync_api import expect, sync_playwright
+
+    from homecog.knowledge.history import correction_history
+
+    url, runtime = own_server
+    assert runtime.act(runtime.context(), ["RaiseBlind"]) is not None
+    (action,) = runtime.journal.recent()
+    assert action.services == ["RaiseBlind"] and action.switches == [("blind", True)]
+    assert runtime.context()["blind"] == "on"
+    with sync_playwright() as p:
+        browser = p.chromium.launch(executable_path=CHROMIUM, headless=True, args=["--no-sandbox"])
+        page = browser.new_page(viewport={"width": 390, "height": 1200})  # a phone's width
+        page.goto(url)
+        expect(page.locator("#status")).to_have_text("live")
+        row = page.locator(f'#actions li[data-action="{action.id}"]')
+        expect(row.locator(".services")).to_have_text("RaiseBlind")
+        expect(row.locator('[data-device="blind"]')).to_have_text("blind → on")
+        expect(row.locator("time")).to_contain_text("10:00")
+        expect(row.locator(".reasons")).to_contain_text("RaiseBlind:")
+        expect(page.locator("#household")).to_contain_text("0 switches by people seen")
+        assert page.locator("#no-actions").is_hidden()
+
+        done = int(page.evaluate("document.body.dataset.cognitions"))
+        page.fill("#user", "kim")
+        page.locator("#user").press("Enter")
+        page.wait_for_function(f"+document.body.dataset.cognitions > {done}")
+        row.locator("button.undo").click()
+        expect(row).to_have_class("undone")
+        expect(row.locator('[data-device="blind"] .badge')).to_have_text("undone here")
+        expect(row.locator("button")).to_have_count(0)  # no second undo from the page
+        expect(page.locator("#undo-result")).to_contain_text("Undone for kim: blind off")
+        expect(page.locator('#context td[data-name="blind"]')).to_have_text("off")
+        assert runtime.context()["blind"] == "off"
+        expect(page.locator('#history li[data-kind="undo"]')).to_have_count(1)
+        expect(page.locator('#history li[data-kind="undo"]')).to_contain_text("RaiseBlind not wanted")
+        expect(page.locator("#household")).to_contain_text("learned 0 observed / 1 undo")
+        (undo,) = [c for c in correction_history(runtime.store, user="kim").corrections if c.kind == "undo"]
+        assert undo.concerns == ["RaiseBlind"] and undo.want == []
+        kinds = [c["kind"] for c in get(f"{url}/api/history?user=kim")["corrections"]]
+        assert kinds == ["undo"]
+        assert send(f"{url}/api/actions/{action.id}/undo", {"user": "kim"})[0] == 409
+        page.reload()  # the server says it is undone: still no Undo
+        expect(row.locator('[data-device="blind"] .badge')).to_have_text("undone here")
+        expect(row.locator("button")).to_have_count(0)
+
+        # live: the robot turns the radio on, and a person switches it back off by hand
+        assert runtime.act(runtime.context(), ["RadioOn"]) is not None
+        radio = page.locator("#actions li").first
+        expect(radio.locator(".services")).to_have_text("RadioOn")
+        expect(radio.locator("button.undo")).to_be_visible()
+        runtime.switch("radio", False)  # within the undo window: an undo by the person
+        expect(radio.locator('[data-device="radio"] .badge')).to_have_text("undone by hand")
+        expect(radio.locator("button")).to_have_count(0)
+        expect(page.locator("#household")).to_contain_text("1 switches by people seen")
+        expect(page.locator("#household")).to_contain_text("learned 0 observed / 2 undo")
+        expect(page.locator("#actions li")).to_have_count(2)
+        browser.close()
+
+
+def test_the_robot_did_panel_shows_markup_as_text(own_server):
+    """Names from home files and user names can be hostile: shown as text, at load and live."""
+    from playwright.sync_api import expect, sync_playwright
+
+    url, runtime = own_server
+    hostile = "<img src=x onerror=window.pwned=1>"
+    why = [{"service": hostile, "conditions": {"<i>f</i>": "<svg onload=window.pwned=3>"}}]
+    first = runtime.journal.add(
+        at=0.0,
+        services=[hostile],
+        switches=[("<svg onload=window.pwned=2>", True)],
+        context={},
+        user="<b>x</b>",
+        why=why,
+    )
+    with sync_playwright() as p:
+        browser = p.chromium.launch(executable_path=CHROMIUM, headless=True, args=["--no-sandbox"])
+        page = browser.new_page(viewport={"width": 390, "height": 1200})
+        page.goto(url)
+        expect(page.locator("#status")).to_have_text("live")
+        row = page.locator(f'#actions li[data-action="{first.id}"]')
+        expect(row.locator(".services")).to_have_text(hostile)
+        expect(row.locator("time")).to_contain_text("for <b>x</b>")
+        expect(row.locator(".switches")).to_contain_text("<svg onload=window.pwned=2> → on")
+        expect(row.locator(".reasons")).to_contain_text("<i>f</i> <svg onload=window.pwned=3>")
+
+        second = runtime.journal.add(
+            at=0.0, services=["<script>window.pwned=4</script>"], switches=[], context={}, user="<u>y</u>"
+        )
+        runtime.publish("action", second.as_dict())  # live, as when the robot acts
+        live = page.locator(f'#actions li[data-action="{second.id}"]')
+        expect(live.locator(".services")).to_have_text("<script>window.pwned=4</script>")
+        expect(live.locator("time")).to_contain_text("for <u>y</u>")
+        assert page.locator("#actions img, #actions svg, #actions b:not(.services), #actions u").count() == 0
+        assert page.evaluate("window.pwned") is None
         browser.close()

@@ -4,7 +4,7 @@ from event streams, real data (SPEC §9, §11)."""
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Any
 
 import typer
 
@@ -19,7 +19,7 @@ from homecog.cli.options import (
     status,
 )
 from homecog.cli.output import emit_json, stdout
-from homecog.cli.render import eval_table, replay_table
+from homecog.cli.render import days_table, eval_table, replay_table
 from homecog.home import load_home
 
 
@@ -45,13 +45,28 @@ def eval_command(
     joint: Annotated[
         bool, typer.Option("--joint", help="Learn from the paper's joint Q table (small homes only).")
     ] = False,
+    days: Annotated[
+        int | None,
+        typer.Option(
+            min=1,
+            max=365,
+            help="Instead: the robot and a household of the truth home's wishes live this many "
+            "simulated days; the household corrects it only by switching.",
+        ),
+    ] = None,
     json: JsonOption = False,
 ) -> None:
-    """Precision, recall and F1 of every method on scenarios; with --corrections, how the robot develops."""
+    """Precision, recall and F1 of every method on scenarios; with --corrections, how the robot
+    develops; with --days, the robot living with a household (the closed loop)."""
     from homecog.evaluation.evaluate import run as run_eval
 
     h = load_home(home)
     t = load_home(truth) if truth else h
+    if days is not None:
+        if corrections:
+            raise UsageProblemError("--days and --corrections are two evaluations; give one")
+        _closed_loop(h, t, days=days, seed=seed, db=db, report=report, json=json)
+        return
     names = method_names(methods)
     if scenarios.strip().isdigit():
         cases: int | Path = int(scenarios)
@@ -91,6 +106,44 @@ def eval_command(
         )
     if report is not None:
         stdout.print(f"report: {data['report']}")
+
+
+def _closed_loop(
+    h: Any, t: Any, *, days: int, seed: int, db: str | None, report: Path | None, json: bool
+) -> None:
+    """``homecog eval --days``: the robot (knowledge in ``db``, else in memory) and a household of
+    ``t``'s wishes live ``days`` days in ``h``."""
+    from homecog.evaluation.closed_loop import closed_loop
+    from homecog.evaluation.evaluate import check_truth
+    from homecog.knowledge.pipeline import open_tree
+    from homecog.knowledge.store import Store
+
+    check_truth(h, t)
+    if report is not None:
+        check_writable(report / "household.md")
+    store = Store(db or "sqlite://", h)
+    try:
+        tree = open_tree(h, store, progress=status)
+        result = closed_loop(h, t, store, tree, days=days, seed=seed, progress=status)
+    finally:
+        store.close()
+    if report is not None:
+        from homecog.evaluation.closed_loop_report import write_days_report
+
+        result["report"] = str(write_days_report(result, report))
+    if json:
+        emit_json(result)
+        return
+    stdout.print(days_table(result))
+    s = result["summary"]
+    share = s["last3_household_share"]
+    stdout.print(
+        "last 3 days: the household's own switches "
+        + (f"{share:.0%} a day of day 1's" if share is not None else "(none on day 1)")
+        + f", {s['last3_undone_share']:.1%} of the robot's switches undone, {s['fights']} fights"
+    )
+    if report is not None:
+        stdout.print(f"report: {result['report']}")
 
 
 def replay(

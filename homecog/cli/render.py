@@ -94,3 +94,17 @@ def replay_table(result: Any, events: str) -> Table:
         against = [str(versus[name]) if name in versus else ""] if versus else []
         table.add_row(name, *(f"{m[k]:.4f}" for k in ("precision", "recall", "f1")), *against)
     return table
+
+
+def days_table(result: dict[str, Any]) -> Table:
+    """The closed loop per day: the robot's switches, those undone, the household's, fights."""
+    table = Table(
+        title=f"{result['home']} with a household of {result['truth']}'s wishes", title_justify="left"
+    )
+    for col in ("day", "robot's switches", "undone", "household's own", "fights"):
+        table.add_column(col, justify="right")
+    for d in result["days"]:
+        table.add_row(
+            *(str(d[k]) for k in ("day", "robot_switches", "reversed", "household_switches", "fights"))
+        )
+    return table

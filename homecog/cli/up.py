@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import os
 from typing import Annotated, Any
 
@@ -17,6 +18,7 @@ from homecog.cli.options import (
 )
 from homecog.cli.output import stdout
 from homecog.home import load_home
+from homecog.home.household import Household
 
 LOCAL_HOSTS = ("127.0.0.1", "localhost", "::1")
 
@@ -60,6 +62,27 @@ def up(
     ha_token: Annotated[
         str | None, typer.Option("--ha-token", help="Its access token (default: $HOMECOG_HA_TOKEN).")
     ] = None,
+    household: Annotated[
+        str | None,
+        typer.Option(
+            help="A simulated household of this home's wishes lives in the simulated home and "
+            "switches by hand what is not as it wants (the robot learns from it)."
+        ),
+    ] = None,
+    undo_window: Annotated[
+        float | None,
+        typer.Option(min=0, max=1440, help="Minutes within which a person switching back is an undo (15)."),
+    ] = None,
+    hold: Annotated[
+        float | None,
+        typer.Option(min=0, max=1440, help="Minutes the robot leaves a device a person switched (30)."),
+    ] = None,
+    observed_weight: Annotated[
+        int | None, typer.Option(min=1, max=100, help="Corrections' worth of a person's switch (1).")
+    ] = None,
+    undo_weight: Annotated[
+        int | None, typer.Option(min=1, max=100, help="Corrections' worth of an undo (1).")
+    ] = None,
 ) -> None:
     """Start the robot: train or reuse the Q table, build or reuse the tree, serve the HMI."""
     import functools
@@ -84,7 +107,15 @@ def up(
         raise UsageProblemError(
             "--home-assistant is the home's context; it goes with neither --mqtt nor --publish"
         )
+    if household is not None and (mqtt is not None or home_assistant is not None or speed == 0):
+        raise UsageProblemError("--household lives in the simulated home; it needs --speed > 0, no broker")
     h = load_home(home)
+    people = household_settings(h.household, undo_window, hold, observed_weight, undo_weight)
+    truth = load_home(household) if household is not None else None
+    if truth is not None:
+        from homecog.evaluation.evaluate import check_truth
+
+        check_truth(h, truth)
     settings = Settings.of(token=token)  # or $HOMECOG_TOKEN
     if host not in LOCAL_HOSTS and settings.token is None:
         settings = settings.model_copy(update={"token": secrets.token_urlsafe(24)})
@@ -101,14 +132,22 @@ def up(
         store = Store(db, h)
         stack.callback(store.close)
         tree = open_tree(h, store, progress=lambda m: say(m, style="dim"))
-        source: Any = SimulatedHome(h, speed=speed) if speed > 0 else ManualSource(h)
+        source: Any = (
+            SimulatedHome(h, speed=speed, routine_switches=truth is None) if speed > 0 else ManualSource(h)
+        )
         if mqtt is not None:
             from homecog.context.mqtt import MqttSource
 
             source = MqttSource(h, mqtt)
         if home_assistant is not None:
             source = ha_source
-        runtime = Runtime(home=h, store=store, tree=tree, source=source)
+        runtime = Runtime(home=h, store=store, tree=tree, source=source, household=people)
+        if truth is not None:
+            from homecog.evaluation.closed_loop import SimulatedHousehold
+
+            living = SimulatedHousehold(truth, source, undo_window=people.undo_window)
+            runtime.after_tick.append(living.step)
+            say(f"a household of {truth.name}'s wishes lives in the simulated home")
         if mqtt is not None:  # started once the runtime exists: a retained state comes at once
             source.on_change = functools.partial(runtime.publish, "context")
             source.start()
@@ -142,6 +181,20 @@ def up(
             access_log=False,
             proxy_headers=False,  # no proxy is trusted: X-Forwarded-For is not the client
         )
+
+
+def household_settings(
+    base: Household, undo_window: float | None, hold: float | None, observed: int | None, undo: int | None
+) -> Household:
+    """The home file's ``household`` settings with the flags given over them (minutes → s)."""
+    weights = dict(base.weights)
+    weights.update({k: w for k, w in (("observed", observed), ("undo", undo)) if w is not None})
+    return dataclasses.replace(
+        base,
+        undo_window=base.undo_window if undo_window is None else undo_window * 60,
+        hold=base.hold if hold is None else hold * 60,
+        weights=weights,
+    )
 
 
 # -- entry point -------------------------------------------------------------------------------

@@ -79,6 +79,9 @@ class HomeAssistantSource(HomeAssistantConnection):
         Seconds :meth:`start` waits for the first connection.
     """
 
+    #: :meth:`switch` answers ``None`` for a switch it skipped (the instance away)
+    skips_switches = True
+
     def __init__(
         self,
         home: Home,

@@ -160,8 +160,16 @@ class SimulatedHome(ChangeNotifier):
     # -- the protocol ----------------------------------------------------------------
     def snapshot(self) -> dict[str, str]:
         """Every feature and device as text, as a scenario file or ``--context`` takes them."""
+        return self._snapshot(self._states)
+
+    def preview(self, device: str, on: bool) -> dict[str, str]:
+        """The snapshot as it would be now with ``device`` switched (the readings it moves
+        moved too): what a person who knows their home expects of a switch."""
+        return self._snapshot({**self._states, device: on})
+
+    def _snapshot(self, states: Mapping[str, bool]) -> dict[str, str]:
         values = self._routine.values_at(self._hours)
-        numbers = numeric_readings(self.home, self._now, self._states, self._weather)
+        numbers = numeric_readings(self.home, self._now, states, self._weather)
         minute = self._now.toordinal() * 1440 + self._now.hour * 60 + self._now.minute
         noise = np.random.default_rng([self.seed, minute]).standard_normal(len(self.home.features))
         out: dict[str, str] = {}
@@ -179,7 +187,7 @@ class SimulatedHome(ChangeNotifier):
                 else:
                     x = round(clamp(f, x + TEMPERATURE_NOISE * noise[i]), 1)
                 out[f.name] = format_number(clamp(f, x))
-        for device, on in self._states.items():
+        for device, on in states.items():
             out[device] = "on" if on else "off"
         return out
 

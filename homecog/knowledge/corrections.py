@@ -185,7 +185,15 @@ class UserLayers:
                 before = answers.get(a) or learner.decide(readings, codes, shared=a in shared)
                 if before.wanted + before.unwanted:
                     threshold.judge(before.share, wanted)
-            learner.add(readings, codes, wanted, shared=a in shared, ident=ident, weight=example.weight)
+            learner.add(
+                readings,
+                codes,
+                wanted,
+                shared=a in shared,
+                ident=ident,
+                weight=example.weight,
+                partial=example.concerns is not None,
+            )
         self._last = None
 
     def learners(self, user: str) -> dict[int, ServiceLearner]:

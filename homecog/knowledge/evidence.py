@@ -187,6 +187,8 @@ class ServiceLearner:
         self._examples: list[tuple[Sequence[float | None], Sequence[int], bool, bool, int]] = []
         self._atoms: list[tuple[Atom, ...]] = []
         self._weights: list[int] = []  # per example, how many it counts as
+        self._partials: list[bool] = []  # per example, whether it is partial (see add)
+        self._partial = False  # any partial example: only the keys with the shared answer answer
         # per key (by position in self.keys): its cells' counts [wanted, unwanted, latest] and
         # its leave-one-out loss
         self._tables: list[dict[tuple[Atom, ...], list[int]]] = [{} for _ in self.keys]
@@ -195,6 +197,9 @@ class ServiceLearner:
         self._index = {k: i for i, k in enumerate(self.keys)}
         # per key, its keys with one atom less
         self._subs = [[self._index[k[:m] + k[m + 1 :]] for m in range(len(k))] for k in self.keys]
+        shared_atom = n_atoms - 1
+        self._shared_keys = [i for i, k in enumerate(self.keys) if shared_atom in k]
+        self._shared_subs = [[j for j in subs if shared_atom in self.keys[j]] for subs in self._subs]
         self._prior_rank = [(-len(prior.intersection(k)), len(set(k) - prior)) for k in self.keys]
         self._best: int | None = None  # the best key's position, and every key's loss rounded
         self._rounded: list[float] = []
@@ -231,14 +236,23 @@ class ServiceLearner:
         shared: bool,
         ident: int = 0,
         weight: int = 1,
+        partial: bool = False,
     ) -> None:
         """Count one example: the service ``wanted`` or not in a context (``ident``: the
-        caller's name for it, given back by :meth:`members`), as ``weight`` examples."""
+        caller's name for it, given back by :meth:`members`), as ``weight`` examples.
+
+        A ``partial`` example (one of a correction that spoke of some services only: what a
+        person's hands said) is counted under the keys that hold the shared answer alone: it
+        refines what the shared knowledge says where it says it, and a service with such
+        examples answers by those keys only — so a few switches, all of them "wanted", do not
+        spread over every context."""
         self._examples.append((readings, codes, wanted, shared, ident))
         self._weights.append(weight)
+        self._partials.append(partial)
+        self._partial |= partial
         atoms = self.atoms(readings, codes, shared)
         self._atoms.append(atoms)
-        self._count(atoms, wanted, range(len(self.keys)), weight)
+        self._count(atoms, wanted, self._shared_keys if partial else range(len(self.keys)), weight)
         self._best = self._backoff = None
         n = len(self._examples)
         if n >= self._next_cut:
@@ -278,11 +292,13 @@ class ServiceLearner:
         if not moved:
             return
         keys = [i for i, k in enumerate(self.keys) if any(j in k for j in moved)]
+        shared_keys = [i for i in keys if i in set(self._shared_keys)]
         for e, (readings, codes, wanted, shared, _) in enumerate(self._examples):
             atoms = self.atoms(readings, codes, shared)
             if atoms != self._atoms[e]:
-                self._count(self._atoms[e], wanted, keys, -self._weights[e])
-                self._count(atoms, wanted, keys, self._weights[e])
+                these = shared_keys if self._partials[e] else keys
+                self._count(self._atoms[e], wanted, these, -self._weights[e])
+                self._count(atoms, wanted, these, self._weights[e])
                 self._atoms[e] = atoms
 
     def best_key(self) -> Key:
@@ -290,8 +306,9 @@ class ServiceLearner:
         others, then the first)."""
         if self._best is None:
             rounded = self._rounded = [round(loss, 6) for loss in self._loo]
-            least = min(rounded)
-            tied = (i for i, loss in enumerate(rounded) if loss == least)
+            candidates = self._shared_keys if self._partial else range(len(self.keys))
+            least = min(rounded[i] for i in candidates)
+            tied = (i for i in candidates if rounded[i] == least)
             self._best = min(tied, key=self._prior_rank.__getitem__)
         return self.keys[self._best]
 
@@ -324,12 +341,14 @@ class ServiceLearner:
         return Decision(_sign(share, threshold, last), key, cell, p, n, threshold, share)
 
     def backoff(self) -> list[Key]:
-        """The best key, then the best of its keys with one atom less, and so on to the empty key."""
+        """The best key, then the best of its keys with one atom less, and so on to the empty key
+        (to the key of the shared answer alone, where the service has partial examples)."""
         if self._backoff is None:
             i = self._index[self.best_key()]
             chain = [self.keys[i]]
-            while self._subs[i]:
-                i = min(self._subs[i], key=self._rank)
+            subs = self._shared_subs if self._partial else self._subs
+            while subs[i]:
+                i = min(subs[i], key=self._rank)
                 chain.append(self.keys[i])
             self._backoff = chain
         return self._backoff

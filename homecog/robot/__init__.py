@@ -11,7 +11,10 @@ Each part is one job, and :class:`~homecog.robot.runtime.Runtime` puts them toge
   undo of the robot's switch, learned as a rejection where it acted; bad input counted;
 - :mod:`~homecog.robot.actor`: the robot acting on what it proposes (planning, IoT switches,
   its simulated body), out of the way of what a person holds;
-- :mod:`~homecog.robot.events`: the live stream of what happens, for the HMI;
-- :mod:`~homecog.robot.household`: a simulated household that switches by its own wishes, and
-  the closed loop of robot and household over days (``homecog eval --days``).
+- :mod:`~homecog.robot.settling`: the robot does not switch back its own switch while the home
+  is as that switch left it;
+- :mod:`~homecog.robot.events`: the live stream of what happens, for the HMI.
+
+A simulated household that switches by its own wishes, and the robot and the household living
+days together, are an evaluation: :mod:`homecog.evaluation.closed_loop`.
 """

@@ -5,14 +5,13 @@ command is replanned and logged, never raised.
 
 Every switch it commands is announced to the attribution first (so its report is known for the
 robot's own), a service that would switch a device a person holds is left out (never fight), and
-what it did goes to the journal with the services' explanations. Nor does it switch back, in the
-same situation, a device it switched itself within the hold (its rules and the readings its own
-switch caused disagreeing: a curtain opened makes the room light, and the light rule closes it):
-it waits for the situation to change.
+what it did goes to the journal with the services' explanations. Nor does it switch back a device
+it switched itself while the home is as that switch left it (:mod:`homecog.robot.settling`).
 """
 
 from __future__ import annotations
 
+import concurrent.futures
 import logging
 from collections.abc import Callable, Mapping
 from typing import Any
@@ -25,12 +24,10 @@ from homecog.planning.state import device_states, observed_state
 from homecog.robot.attribution import Attribution
 from homecog.robot.holds import Holds
 from homecog.robot.journal import Journal, RobotAction
+from homecog.robot.settling import Settling
 from homecog.simulation.body import SimulatedRobot
 
 log = logging.getLogger("homecog.robot")
-
-#: seconds the robot leaves its own switch as it is while the situation is the same
-SETTLE = 1800.0
 
 
 class Actor:
@@ -58,24 +55,38 @@ class Actor:
         self.body = SimulatedRobot(home, switch=self.switch, domain=self.domain) if body else None
         self.acted: Acting | None = None
         self.skipped_held = 0  # services left out because a person holds one of their devices
-        # the robot's own recent switches: not switched back in the same situation for a while
-        self.settling = Holds(home, hold=SETTLE, lasting=False)
+        self.settling = Settling(home)  # its own recent switches: not switched back at once
         self.skipped_settling = 0  # services left out: they would switch back the robot's own
         self._sent: dict[str, dict[str, str]] = {}
         self._proposed: set[str] = set()
         self._switched: list[tuple[str, bool]] | None = None
 
     def switch(self, device: str, on: bool) -> object:
-        """The robot's own switch: announced, then commanded; a failure is not expected back."""
+        """The robot's own switch: announced, then commanded. A command that fails — it raises,
+        the source skips it (``None``: Home Assistant away) or its future says it failed — is not
+        expected back, nor journaled as switched."""
         self.attribution.expect(device, on, at=self.source.clock())
         try:
             result = self.source.switch(device, on)
         except BaseException:
             self.attribution.forget(device, on)
             raise
+        if result is None and getattr(self.source, "skips_switches", False):
+            self.attribution.forget(device, on)
+            return result
+        if isinstance(result, concurrent.futures.Future):
+            result.add_done_callback(lambda f: self._settled_call(f, device, on))
         if self._switched is not None:
             self._switched.append((device, on))
         return result
+
+    def _settled_call(self, future: concurrent.futures.Future[Any], device: str, on: bool) -> None:
+        failed = future.cancelled() or future.exception() is not None or future.result() is False
+        if failed:
+            log.warning(
+                "the switch of %s %s failed; its report is not awaited", device, "on" if on else "off"
+            )
+            self.attribution.forget(device, on)
 
     def todo(self, now: Mapping[str, str], proposed: list[str]) -> list[str]:
         """The proposed services to carry out now.
@@ -87,7 +98,7 @@ class Actor:
         devices = device_states(self.home, now)
         at = self.source.clock()
         held = self.holds.held_devices(now, at=at)
-        settling = self.settling.held_devices(now, at=at)
+        settling = self.settling.settled_devices(now)
         out = []
         for name in proposed:
             sets = self.home.services[self.home.service_index(name)].sets
@@ -134,7 +145,7 @@ class Actor:
         self.acted = result
         for device, _ in switched:
             self.holds.robot_switched(device, now)
-            self.settling.hold(device, now, at=self.source.clock())
+            self.settling.switched(device)
         return self.journal.add(
             at=self.source.clock(),
             services=todo,

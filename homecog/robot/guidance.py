@@ -2,8 +2,10 @@
 
 A person's switch is an *observed correction*: the service that makes it (the one that sets just
 that device to that state) was wanted in the context just before it, by that person. A person
-switching back, within the undo window, what the robot switched is an *undo*: a rejection of the
-robot's service in the context where the robot did it. Both are learned for the person's homecog
+switching back, within the undo window and while every feature is in the bin or value it was in
+when the robot acted, what the robot switched is an *undo*: a rejection of the robot's service in
+the context where the robot did it (once a reading has crossed a bin since, the person answers
+the home as it is now: an observed correction). Both are learned for the person's homecog
 user at once and go to the experience log with their kind and weight.
 
 What teaches nothing, counted and logged, never learned as a wish: an automation's change; a
@@ -23,6 +25,8 @@ from collections.abc import Callable, Mapping
 from typing import Any
 
 from homecog.context import DeviceChange
+from homecog.errors import ContextError
+from homecog.home.codec import Space
 from homecog.home.household import Household
 from homecog.home.model import Home
 from homecog.home.states import state_word
@@ -35,6 +39,9 @@ log = logging.getLogger("homecog.robot")
 FLAP_SECONDS = 2.0
 #: after a flap, the device teaches nothing until it has been still this long
 QUIET_SECONDS = 60.0
+
+#: a situation lived this long (seconds) without switching a device back says it was as wanted
+QUIET_SITUATION = 600.0
 
 #: learn(context, want, user, kind): apply and log a correction
 Learn = Callable[[Mapping[str, str], list[str], str, Kind], Any]
@@ -64,6 +71,8 @@ class Guidance:
         self.journal = journal
         self._learn = learn
         self._services = switch_services(home)
+        self._space = Space(home)
+        self._n = len(home.features)
         self._last_at: float | None = None
         self._last_switch: dict[str, float] = {}  # device -> a person's latest switch of it
         self._quiet_until: dict[str, float] = {}  # device -> flapping: teaches nothing until
@@ -91,8 +100,10 @@ class Guidance:
         undone = self.journal.undoable(
             change.device, change.on, at=change.at, window=self.household.undo_window
         )
-        if undone is not None:
+        if undone is not None and self._same_context(undone[0].context, before):
             return self._undo(undone[0], change, user, by="person")
+        if undone is not None:  # the home moved on since the robot acted: it answers the home now
+            undone[0].undone[change.device] = "person"
         wanted = self._services.get((change.device, change.on))
         if wanted is None:
             self.counts["no_service"] += 1
@@ -102,6 +113,19 @@ class Guidance:
         self._learn(before, [wanted], user, Kind.observed(wanted, weight=weight, **note))
         self.counts["observed"] += 1
         return "observed"
+
+    def quiet(self, context: Mapping[str, str], user: str) -> list[str]:
+        """The household lived through a situation and left the devices as they are at its end
+        (``context``): the services that would switch one of them were not wanted there. Returns
+        those services, learned as one correction."""
+        services = [
+            name for (device, on), name in self._services.items() if (context.get(device) == "on") != on
+        ]
+        if services:
+            weight = self.household.weight("observed")
+            self._learn(context, [], user, Kind("observed", services, weight, {"quiet": True}))
+            self.counts["quiet"] += 1
+        return services
 
     def undo(self, action_id: int, user: str) -> list[str]:
         """The HMI's undo of a robot's action: every service of it rejected where it acted.
@@ -124,6 +148,16 @@ class Guidance:
             self._learn(action.context, [], user, Kind.undo(service, weight=weight, **note))
         self.counts["undo"] += 1
         return "undo"
+
+    def _same_context(self, a: Mapping[str, str], b: Mapping[str, str]) -> bool:
+        """Whether two contexts fall in the same bins and values of every feature (the devices
+        aside): a switch back in the same circumstances rejects the robot's service; one after a
+        reading crossed a bin answers the new circumstances instead."""
+        try:
+            codes = [self._space.point(c).codes[: self._n] for c in (a, b)]
+        except ContextError:
+            return False
+        return codes[0] == codes[1]
 
     def _services_of(self, services: list[str], device: str) -> list[str]:
         """The services among ``services`` that set ``device``."""

@@ -38,10 +38,9 @@ def situation(home: Home, context: Mapping[str, str]) -> tuple[str | None, ...]:
 class Holds:
     """Devices a person switched, each with the situation and time of the switch."""
 
-    def __init__(self, home: Home, *, hold: float, lasting: bool = True) -> None:
+    def __init__(self, home: Home, *, hold: float) -> None:
         self.home = home
         self.hold_seconds = hold
-        self.lasting = lasting  # held for the whole situation (else: only within the hold)
         self._held: dict[str, tuple[tuple[str | None, ...], float]] = {}
         self._last: dict[str, tuple[str | None, ...]] = {}  # a person's last switch: for fights
         self.fights = 0
@@ -61,8 +60,7 @@ class Holds:
             if entry is None:
                 return False
             where, since = entry
-            same, recent = where == situation(self.home, context), 0 <= at - since < self.hold_seconds
-            if (same or recent) if self.lasting else (same and recent):
+            if where == situation(self.home, context) or 0 <= at - since < self.hold_seconds:
                 return True
             del self._held[device]
             return False

@@ -33,6 +33,7 @@ class RobotAction:
     why: list[dict[str, Any]] = field(default_factory=list)  # the explanations of the services
     done: list[str] = field(default_factory=list)  # the plan's actions carried out
     undone: dict[str, str] = field(default_factory=dict)  # device -> by whom: "person" or "hmi"
+    undone_here: bool = False  # undone from the HMI (its services rejected)
     wall: float = field(default_factory=time.time)
 
     def as_dict(self) -> dict[str, Any]:
@@ -46,6 +47,7 @@ class RobotAction:
             "why": self.why,
             "actions": self.done,
             "undone": [{"device": d, "by": by} for d, by in self.undone.items()],
+            "undone_here": self.undone_here,
         }
 
 

@@ -40,11 +40,13 @@ from homecog.planning import Acting
 from homecog.robot.actor import Actor
 from homecog.robot.attribution import Attribution
 from homecog.robot.events import EventBus, tell_all
-from homecog.robot.guidance import Guidance
-from homecog.robot.holds import Holds
+from homecog.robot.guidance import QUIET_SITUATION, Guidance
+from homecog.robot.holds import Holds, situation
 from homecog.robot.journal import Journal
 
 log = logging.getLogger("homecog.robot")
+#: what the household's hands taught: switches, undos, situations lived with the devices as left
+LEARNED = ("observed", "undo", "quiet")
 
 
 @dataclass
@@ -61,6 +63,8 @@ class Runtime:
     household: Household | None = None
     lock: threading.Lock = field(default_factory=threading.Lock)
     watchers: list[Callable[[dict[str, str]], object]] = field(default_factory=list)
+    after_tick: list[Callable[[], object]] = field(default_factory=list)
+    """Called after every :meth:`tick` (a simulated household taking its turn)."""
 
     def __post_init__(self) -> None:
         self.household = self.household or self.home.household
@@ -80,7 +84,7 @@ class Runtime:
             body=body,
         )
         self.household_switches = 0  # device changes by people (and automations) seen
-        self._undone: set[int] = set()  # actions undone from the HMI
+        self._situation: tuple[float, dict[str, str] | None] = (0.0, None)  # since, latest context
         self.source.listen(self._changed)
 
     @property
@@ -180,15 +184,19 @@ class Runtime:
             self.source.advance(seconds)
         if act:
             self.act_now(user or self.household.default_user)
+        for turn in self.after_tick:
+            turn()
         after = self.source.snapshot()
         if after != before:
             self.publish("context", after)
         return after != before
 
     def act_now(self, user: str) -> Acting | None:
-        """The robot acts on what it proposes for ``user`` in the context now."""
+        """The robot acts on what it proposes for ``user`` in the context now (and a situation
+        that ended is learned from: :meth:`Guidance.quiet`)."""
         now = self.source.snapshot()
         self.holds.observe(now)
+        self._follow_situation(now, user)
         point = self.space.point(now)
         with self.lock:
             proposed = self.tree.predict_one(point, user=user)
@@ -202,7 +210,22 @@ class Runtime:
         if action is None:
             return None
         self.publish("action", action.as_dict())
+        if action.switches:
+            self.publish("context", self.context())
         return self.actor.acted
+
+    def _follow_situation(self, now: dict[str, str], user: str) -> None:
+        """Keep the context of the situation lived now; when it ends after a while, what the
+        household left as it was is learned."""
+        where, at = situation(self.home, now), self.source.clock()
+        began, last = self._situation
+        if last is not None and situation(self.home, last) != where:
+            if at - began >= QUIET_SITUATION:
+                self.guidance.quiet(last, user)
+            began = at
+        elif last is None:
+            began = at
+        self._situation = (began, now)
 
     def _why(self, now: Mapping[str, str], services: list[str], user: str) -> list[Any]:
         point = self.space.point(now)
@@ -218,9 +241,9 @@ class Runtime:
         action = self.journal.get(action_id)
         if action is None:
             raise LookupError(f"no action {action_id} among the robot's latest")
-        if action.undone or action.id in self._undone:
+        if action.undone or action.undone_here:
             raise FixedContextError(f"action {action_id} is undone already")
-        self._undone.add(action.id)
+        action.undone_here = True
         now = self.source.snapshot()
         switched = []
         for device, on in reversed(action.switches):
@@ -248,8 +271,8 @@ class Runtime:
         counts = dict(self.guidance.counts)
         return {
             "household_switches": self.household_switches,
-            "learned": {k: counts.get(k, 0) for k in ("observed", "undo")},
-            "ignored": {k: v for k, v in counts.items() if k not in ("observed", "undo")},
+            "learned": {k: counts.get(k, 0) for k in LEARNED},
+            "ignored": {k: v for k, v in counts.items() if k not in LEARNED},
             "fights": self.holds.fights,
             "left_alone": self.actor.skipped_held,
             "undo_window_minutes": self.household.undo_window / 60,

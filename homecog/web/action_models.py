@@ -32,11 +32,15 @@ class ActionOut(BaseModel):
     )
     actions: list[str] = Field(description="The plan's actions carried out.")
     undone: list[UndoneOut] = Field(description="Its switches that were undone, and how.")
+    undone_here: bool = Field(description="Whether it was undone from the HMI (its services rejected).")
 
 
 class HouseholdOut(BaseModel):
     household_switches: int = Field(description="Device changes by people (and automations) seen.")
-    learned: dict[str, int] = Field(description="Corrections learned from them: observed, undo.")
+    learned: dict[str, int] = Field(
+        description="What they taught: observed (a switch), undo (of the robot's), quiet (a situation "
+        "lived through with the devices as they were)."
+    )
     ignored: dict[str, int] = Field(description="Changes not learned from, by reason.")
     fights: int = Field(
         description="Switches of the robot's of a device a person had switched in the same situation."

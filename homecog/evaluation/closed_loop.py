@@ -4,7 +4,9 @@ The household acts by the wishes of a *truth* home (compatible with the robot's)
 device is not as the truth's comfort rules want it in the context now, a person switches it by
 hand once it has been so for :data:`DELAY` seconds. A person does not switch back their own
 switch while their situation is the same (a curtain opened because the room was dark is not
-closed again because the daylight it let in makes the room light). It never touches the HMI:
+closed again because the daylight it let in makes the room light), nor switch one where the
+switch would make them want it switched back (it knows its home: the readings the switch
+moves, as the simulated home computes them). It never touches the HMI:
 the robot learns from its switches alone.
 
 The closed loop (:func:`closed_loop`) lets both live ``days`` simulated days in the home (its
@@ -92,7 +94,7 @@ class SimulatedHousehold:
             ours = self._ours.get(device)
             if ours is not None and ours[1] == (context[device] == "on"):
                 want = None  # as we set it in this situation: we do not switch it back ourselves
-            if want is None or (context[device] == "on") == want:
+            if want is None or (context[device] == "on") == want or not self._stable(device, want):
                 self._since.pop(device, None)
                 continue
             since = self._since.setdefault(device, now)
@@ -101,6 +103,12 @@ class SimulatedHousehold:
                 done.append((device, want))
                 self._since.pop(device, None)
         return done
+
+    def _stable(self, device: str, on: bool) -> bool:
+        """Whether the household would still want ``device`` so once switched (a curtain opened
+        to a dark room that makes it light enough to want it closed is no wish to act on)."""
+        after = self.wishes(self.source.preview(device, on)).get(device)
+        return after is None or after == on
 
     def _switch(self, device: str, on: bool, context: dict[str, str]) -> None:
         self._mine = (device, on)
@@ -149,11 +157,11 @@ def closed_loop(
     out: list[Day] = []
     began = time.perf_counter()
     ticks = round(86400 / STEP)
+    runtime.after_tick.append(people.step)
     for day in range(1, days + 1):
         people.today = Day(day)
         for _ in range(ticks):
             runtime.tick(STEP)
-            people.step()
         out.append(people.today)
         if progress is not None:
             d = people.today
@@ -161,10 +169,12 @@ def closed_loop(
                 f"day {day}: robot {d.robot_switches} switches ({d.reversed} undone), "
                 f"household {d.household_switches}, fights {d.fights}"
             )
+    days_out = [asdict(d) for d in out]
     return {
         "home": home.name,
         "truth": truth.name,
-        "days": [asdict(d) for d in out],
+        "days": days_out,
+        "summary": summary(days_out),
         "robot": runtime.status(),
         "experiences": store.experience_count(),
         "seconds": round(time.perf_counter() - began, 2),
@@ -189,6 +199,3 @@ def summary(days: list[dict[str, Any]]) -> dict[str, float | None]:
         "last3_undone_share": round(sum(d["reversed"] for d in last) / robot, 4) if robot else 0.0,
         "fights": sum(d["fights"] for d in days),
     }
-
-
-__all__ = ["Day", "SimulatedHousehold", "closed_loop", "summary"]

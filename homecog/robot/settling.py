@@ -1,0 +1,85 @@
+"""The robot does not undo its own switch (SPEC §7.1, beyond it): a device it switched is not
+switched back while the user's situation is the same and the home is as the switch left it.
+
+Its rules and the readings its own switch causes can disagree — a curtain opened to a room that
+is not light makes it light, and the light rule closes it again — and a robot that followed
+them would switch back and forth. So after its switch the robot keeps its hands off the device
+until something moves that its switch did not: the situation (a categorical feature), the
+clock's bin, or a reading into another bin, by more than a margin (:data:`MARGIN` of the reading,
+so that a reading that hovers at a bin's edge does not count as moving).
+
+>>> from homecog.home import load_home
+>>> home = load_home("paper")
+>>> settling = Settling(home)
+>>> after = {"time": "13:31", "temperature": "29.7", "illumination": "2149", "location": "sofa",
+...          "posture": "sit", "behavior": "watch_tv"}
+>>> settling.switched("window", after)
+>>> settling.settled("window", after)
+True
+>>> settling.settled("window", {**after, "temperature": "29.9"})   # still suitable
+True
+>>> settling.settled("window", {**after, "temperature": "31.2"})   # hot now: it moved
+False
+"""
+
+from __future__ import annotations
+
+import threading
+from collections.abc import Mapping
+
+from homecog.errors import ContextError
+from homecog.home.model import Home
+
+#: how far into another bin a reading must be to count as moved, as a share of the reading
+MARGIN = 0.02
+
+
+class Settling:
+    """The robot's recent switches and the home as each left it."""
+
+    def __init__(self, home: Home, margin: float = MARGIN) -> None:
+        self.home = home
+        self.margin = margin
+        self._after: dict[str, tuple[int, ...] | None] = {}  # None: the home after it not seen yet
+        self._lock = threading.Lock()
+
+    def switched(self, device: str, after: Mapping[str, str] | None = None) -> None:
+        """The robot switched ``device``; ``after``: the home just after (else the next seen)."""
+        with self._lock:
+            self._after[device] = None if after is None else self._codes(after)
+
+    def settled(self, device: str, now: Mapping[str, str]) -> bool:
+        """Whether ``device`` is still as the robot's switch left it, in a home that has not
+        moved since: the robot must not switch it back."""
+        with self._lock:
+            if device not in self._after:
+                return False
+            after = self._after[device]
+            if after is None:  # the first look at the home since the switch
+                self._after[device] = self._codes(now)
+                return True
+            if self._moved(after, now):
+                del self._after[device]
+                return False
+            return True
+
+    def settled_devices(self, now: Mapping[str, str]) -> set[str]:
+        return {d for d in list(self._after) if self.settled(d, now)}
+
+    def _codes(self, context: Mapping[str, str]) -> tuple[int, ...]:
+        return tuple(f.discretize(context[f.name]) for f in self.home.features)
+
+    def _moved(self, after: tuple[int, ...], now: Mapping[str, str]) -> bool:
+        for f, code in zip(self.home.features, after, strict=True):
+            try:
+                if f.discretize(now[f.name]) == code:
+                    continue
+                if f.kind != "numeric":
+                    return True
+                x = float(now[f.name])
+                m = self.margin * max(abs(x), 1.0)
+                if f.discretize(x - m) == f.discretize(x + m):  # well inside its new bin
+                    return True
+            except (ContextError, ValueError):  # a reading off every bin, within the margin
+                continue
+        return False
