@@ -257,7 +257,7 @@ def test_a_persons_switch_over_mqtt_is_learned_and_proposed(mqtt_home: Callable[
     assert services(runtime, before, "default") == ["BringTea", "RadioOn"]  # in the context just before
     assert services(runtime, before, "kim") == ["BringTea"]  # learned for the household's user only
     assert runtime.status() | {"undo_window_minutes": 0, "hold_minutes": 0} == {
-        "household_switches": 1, "learned": {"observed": 1, "undo": 0}, "ignored": {},
+        "household_switches": 1, "learned": {"observed": 1, "undo": 0, "quiet": 0}, "ignored": {},
         "fights": 0, "left_alone": 0, "undo_window_minutes": 0, "hold_minutes": 0,
     }  # fmt: skip
     assert h.devices.sent() == []
@@ -277,7 +277,10 @@ def test_the_robots_own_command_echoed_back_is_not_learned(mqtt_home: Callable[.
     assert verdicts == [("blind", True, "robot"), ("radio", True, "robot")]
     assert history(h.store) == [] and h.store.experience_count() == h.experiences
     assert runtime.guidance.counts == {} and runtime.household_switches == 0
-    assert runtime.status()["learned"] == {"observed": 0, "undo": 0} and runtime.status()["ignored"] == {}
+    assert (
+        runtime.status()["learned"] == {"observed": 0, "undo": 0, "quiet": 0}
+        and runtime.status()["ignored"] == {}
+    )
     [action] = runtime.journal.recent()
     assert (action.services, action.switches, action.undone) == (
         ["RaiseBlind", "RadioOn"], [("blind", True), ("radio", True)], {}
@@ -561,4 +564,6 @@ def test_an_automations_change_teaches_nothing_and_the_robots_own_call_neither(
     assert history(h.store) == [] and h.store.experience_count() == h.experiences
     status = runtime.status()
     assert (status["household_switches"], status["fights"], status["left_alone"]) == (1, 0, 3)
-    assert status["learned"] == {"observed": 0, "undo": 0} and status["ignored"] == {"automation": 1}
+    assert status["learned"] == {"observed": 0, "undo": 0, "quiet": 0} and status["ignored"] == {
+        "automation": 1
+    }

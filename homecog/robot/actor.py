@@ -143,9 +143,9 @@ class Actor:
             switched, self._switched = self._switched or [], None
         log.info("the robot did: %s", "; ".join(" ".join(a) for a in result.done) or "nothing")
         self.acted = result
-        for device, _ in switched:
+        for device, on in switched:
             self.holds.robot_switched(device, now)
-            self.settling.switched(device)
+            self.settling.switched(device, on)
         return self.journal.add(
             at=self.source.clock(),
             services=todo,

@@ -170,17 +170,15 @@ class Guidance:
 
     def _refusal(self, change: DeviceChange) -> str | None:
         """Why a person's switch teaches nothing, or ``None``."""
-        if change.automation:
-            return "automation"
         if change.before is None:
             return "incomplete_context"
         with self._lock:
             last, self._last_at = self._last_at, max(change.at, self._last_at or change.at)
             if last is not None and change.at < last - 1.0:
-                log.warning(
-                    "a change dated %.0f s before the last one: the clock went back", last - change.at
-                )
+                log.warning("a change dated %.0f s before the last: the clock went back", last - change.at)
                 return "clock_back"
+            if change.automation:
+                return "automation"
             previous = self._last_switch.get(change.device)
             self._last_switch[change.device] = change.at
             if previous is not None and change.at - previous < FLAP_SECONDS:

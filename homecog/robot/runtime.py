@@ -200,7 +200,10 @@ class Runtime:
         point = self.space.point(now)
         with self.lock:
             proposed = self.tree.predict_one(point, user=user)
-        return self.act(now, proposed, user=user)
+        done = self.act(now, proposed, user=user)
+        if done is not None:  # the situation's latest context: the home as the robot left it
+            self._situation = (self._situation[0], self.source.snapshot())
+        return done
 
     def act(self, now: Mapping[str, str], proposed: list[str], *, user: str | None = None) -> Acting | None:
         """Carry out the proposed services that have something to do (:class:`Actor`); what was

@@ -13,12 +13,14 @@ so that a reading that hovers at a bin's edge does not count as moving).
 >>> settling = Settling(home)
 >>> after = {"time": "13:31", "temperature": "29.7", "illumination": "2149", "location": "sofa",
 ...          "posture": "sit", "behavior": "watch_tv"}
->>> settling.switched("window", after)
->>> settling.settled("window", after)
+>>> settling.switched("window", True)
+>>> settling.settled("window", {**after, "window": "off"})   # not reported yet: it waits
 True
->>> settling.settled("window", {**after, "temperature": "29.9"})   # still suitable
+>>> settling.settled("window", {**after, "window": "on"})    # reported: the home as it left it
 True
->>> settling.settled("window", {**after, "temperature": "31.2"})   # hot now: it moved
+>>> settling.settled("window", {**after, "window": "on", "temperature": "29.9"})   # suitable
+True
+>>> settling.settled("window", {**after, "window": "on", "temperature": "31.2"})   # hot: moved
 False
 """
 
@@ -40,13 +42,15 @@ class Settling:
     def __init__(self, home: Home, margin: float = MARGIN) -> None:
         self.home = home
         self.margin = margin
-        self._after: dict[str, tuple[int, ...] | None] = {}  # None: the home after it not seen yet
+        # device -> the state the robot switched it to, and the home's codes once it is so
+        self._after: dict[str, tuple[bool, tuple[int, ...] | None]] = {}
         self._lock = threading.Lock()
 
-    def switched(self, device: str, after: Mapping[str, str] | None = None) -> None:
-        """The robot switched ``device``; ``after``: the home just after (else the next seen)."""
+    def switched(self, device: str, on: bool) -> None:
+        """The robot switched ``device`` to ``on``; the home as it leaves it is the first look
+        at the home that reports the device so."""
         with self._lock:
-            self._after[device] = None if after is None else self._codes(after)
+            self._after[device] = (on, None)
 
     def settled(self, device: str, now: Mapping[str, str]) -> bool:
         """Whether ``device`` is still as the robot's switch left it, in a home that has not
@@ -54,9 +58,14 @@ class Settling:
         with self._lock:
             if device not in self._after:
                 return False
-            after = self._after[device]
-            if after is None:  # the first look at the home since the switch
-                self._after[device] = self._codes(now)
+            on, after = self._after[device]
+            if (now.get(device) == "on") != on:
+                if after is None:
+                    return True  # not reported yet
+                del self._after[device]  # switched since, by someone else
+                return False
+            if after is None:  # the first look at the home with the switch done
+                self._after[device] = (on, self._codes(now))
                 return True
             if self._moved(after, now):
                 del self._after[device]
