@@ -88,7 +88,10 @@ def latency(switches: int, console: Console) -> None:
         scenarios = random_scenarios(home, switches * 2, seed=1)
         runtime.cognize(scenarios[0].context, "default")  # the lookup table, made once
         observed, explicit = [], []
+        clock = [0.0]
+        source.clock = lambda: clock[0]  # type: ignore[method-assign]  # two minutes between switches
         for k in range(switches):
+            clock[0] += 120.0
             source.set_context(scenarios[k].context)
             device = rng.choice(home.device_names)
             on = source.snapshot()[device] == "off"
@@ -100,7 +103,9 @@ def latency(switches: int, console: Console) -> None:
             t = time.perf_counter()
             runtime.correct(ctx, [], "kim")
             explicit.append(time.perf_counter() - t)
+        learned = runtime.guidance.counts
         store.close()
+    assert learned["observed"] + learned["undo"] + learned["no_service"] == switches, learned
     table = Table(
         title=f"A person's switch to the next cognition, {switches} switches, SQLite", title_justify="left"
     )
@@ -119,7 +124,7 @@ def main() -> None:
     parser.add_argument("--days", type=int, default=14)
     parser.add_argument("--switches", type=int, default=300)
     args = parser.parse_args()
-    console = Console()
+    console = Console(width=120)
     latency(args.switches, console)
     loops(args.days, console)
 

@@ -20,15 +20,20 @@ import os
 import signal
 import socket
 import subprocess
+import sys
 import threading
 import time
 import urllib.error
 import urllib.parse
 import urllib.request
+from collections.abc import Iterator
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import aiohttp
+
+if TYPE_CHECKING:
+    import pytest
 
 ROOT = Path(__file__).resolve().parent.parent
 VERSION = "2024.3.3"
@@ -113,6 +118,32 @@ def free_port() -> int:
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
         return s.getsockname()[1]
+
+
+@contextlib.contextmanager
+def running_home_assistant(tmp_path_factory: pytest.TempPathFactory) -> Iterator[HomeAssistant]:
+    """A Home Assistant started in a fresh folder and onboarded (its owner's token in
+    :attr:`HomeAssistant.owner_token`), stopped at the end; skips the calling tests, printing
+    why, where there is none to start or it does not start."""
+    import pytest  # here, not above: the benchmark uses this module without pytest
+
+    hass, why = hass_binary()
+    if hass is None:
+        print(f"\nSKIP Home Assistant tests: {why}", file=sys.stderr)
+        pytest.skip(why)
+    server = HomeAssistant(hass, tmp_path_factory.mktemp("home-assistant"))
+    try:
+        seconds = server.start()
+    except RuntimeError as e:
+        reason = f"Home Assistant {VERSION} did not start: {e}"
+        print(f"\nSKIP {reason}", file=sys.stderr)
+        pytest.skip(reason)
+    print(f"\nHome Assistant {VERSION} answered after {seconds:.1f} s at {server.url}", file=sys.stderr)
+    try:
+        server.onboard()
+        yield server
+    finally:
+        server.stop()
 
 
 class HomeAssistant:

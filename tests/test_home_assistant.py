@@ -21,7 +21,7 @@ from datetime import datetime
 from pathlib import Path
 
 import pytest
-from home_assistant import VERSION, HomeAssistant, free_port, hass_binary
+from home_assistant import VERSION, HomeAssistant, free_port, running_home_assistant
 
 from homecog.context.home_assistant import MAX_RECONNECT_DELAY, HomeAssistantSource
 from homecog.errors import ContextError, HomeAssistantError
@@ -61,24 +61,9 @@ pytestmark = pytest.mark.xdist_group("home_assistant")
 
 @pytest.fixture(scope="session")
 def ha(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Instance]:
-    hass, why = hass_binary()
-    if hass is None:
-        print(f"\nSKIP Home Assistant tests: {why}", file=sys.stderr)
-        pytest.skip(why)
-    server = HomeAssistant(hass, tmp_path_factory.mktemp("home-assistant"))
-    try:
-        seconds = server.start()
-    except RuntimeError as e:
-        reason = f"Home Assistant {VERSION} did not start: {e}"
-        print(f"\nSKIP {reason}", file=sys.stderr)
-        pytest.skip(reason)
-    print(f"\nHome Assistant {VERSION} answered after {seconds:.1f} s at {server.url}", file=sys.stderr)
-    try:
-        server.onboard()
+    with running_home_assistant(tmp_path_factory) as server:
         robot_id, robot_token = server.add_user("homecog", "homecog", "homecog-password-1")
         yield Instance(server, robot_id, robot_token)
-    finally:
-        server.stop()
 
 
 @pytest.fixture

@@ -19,10 +19,7 @@ from __future__ import annotations
 
 import os
 import secrets
-import shutil
-import socket
 import statistics
-import subprocess
 import sys
 import threading
 import time
@@ -33,7 +30,8 @@ from typing import Any
 
 import paho.mqtt.client as mqtt
 import pytest
-from home_assistant import VERSION, HomeAssistant, ServiceCalls, hass_binary
+from brokers import mqtt_broker
+from home_assistant import HomeAssistant, ServiceCalls, running_home_assistant
 from paho.mqtt.enums import CallbackAPIVersion
 
 from homecog.context import DeviceChange
@@ -120,37 +118,10 @@ def runtime_for(home: Home, source: Any, db: Path) -> tuple[Runtime, Store]:
 
 
 # -- MQTT ------------------------------------------------------------------------------------------
-def _port_open(host: str, port: int) -> bool:
-    try:
-        with socket.create_connection((host, port), timeout=1):
-            return True
-    except OSError:
-        return False
-
-
 @pytest.fixture(scope="module")
 def broker(tmp_path_factory: pytest.TempPathFactory) -> Iterator[str]:
-    url = os.environ.get("HOMECOG_TEST_MQTT_URL", "mqtt://127.0.0.1:1883")
-    address = parse_url(url)
-    if _port_open(address.host, address.port):
+    with mqtt_broker(tmp_path_factory) as url:
         yield url
-        return
-    binary = shutil.which("mosquitto") or next(
-        (p for p in ("/usr/sbin/mosquitto", "/usr/local/sbin/mosquitto") if Path(p).exists()), None
-    )
-    if address.host != "127.0.0.1" or binary is None:
-        reason = f"no MQTT broker at {url} and no mosquitto binary to start one"
-        print(reason)
-        pytest.skip(reason)
-    conf = tmp_path_factory.mktemp("mosquitto") / "mosquitto.conf"
-    conf.write_text(f"listener {address.port} 127.0.0.1\nallow_anonymous true\npersistence false\n")
-    proc = subprocess.Popen([binary, "-c", str(conf)], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    try:
-        wait(lambda: _port_open(address.host, address.port), f"mosquitto on port {address.port}")
-        yield url
-    finally:
-        proc.terminate()
-        proc.wait(10)
 
 
 class Devices:
@@ -412,26 +383,11 @@ class Instance:
 
 @pytest.fixture(scope="module")
 def ha(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Instance]:
-    hass, why = hass_binary()
-    if hass is None:
-        print(f"\nSKIP Home Assistant tests: {why}", file=sys.stderr)
-        pytest.skip(why)
-    server = HomeAssistant(hass, tmp_path_factory.mktemp("home-assistant"))
-    try:
-        seconds = server.start()
-    except RuntimeError as e:
-        reason = f"Home Assistant {VERSION} did not start: {e}"
-        print(f"\nSKIP {reason}", file=sys.stderr)
-        pytest.skip(reason)
-    print(f"\nHome Assistant {VERSION} answered after {seconds:.1f} s at {server.url}", file=sys.stderr)
-    try:
-        server.onboard()
+    with running_home_assistant(tmp_path_factory) as server:
         robot_id, robot_token = server.add_user("homecog", "homecog", "homecog-password-1")
         ann_id, ann_token = server.add_user("Ann", "ann", "ann-password-1")
         with ServiceCalls(server, server.owner_token) as calls:
             yield Instance(server, robot_id, robot_token, ann_id, ann_token, calls)
-    finally:
-        server.stop()
 
 
 @dataclass

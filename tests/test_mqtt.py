@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import os
 import secrets
-import shutil
 import socket
 import subprocess
 import threading
@@ -19,6 +18,7 @@ from pathlib import Path
 
 import paho.mqtt.client as mqtt
 import pytest
+from brokers import mosquitto, mqtt_broker, start_mosquitto
 from paho.mqtt.enums import CallbackAPIVersion
 
 from homecog.context.mqtt import (
@@ -56,30 +56,6 @@ CONTEXT = {
 }
 
 
-def _port_open(host: str, port: int) -> bool:
-    try:
-        with socket.create_connection((host, port), timeout=1):
-            return True
-    except OSError:
-        return False
-
-
-def _mosquitto() -> str | None:
-    return shutil.which("mosquitto") or next(
-        (p for p in ("/usr/sbin/mosquitto", "/usr/local/sbin/mosquitto") if Path(p).exists()), None
-    )
-
-
-def _start_mosquitto(port: int, tmp: Path) -> subprocess.Popen[bytes]:
-    binary = _mosquitto()
-    assert binary is not None
-    conf = tmp / f"mosquitto-{port}.conf"
-    conf.write_text(f"listener {port} 127.0.0.1\nallow_anonymous true\npersistence false\n")
-    proc = subprocess.Popen([binary, "-c", str(conf)], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    _wait(lambda: _port_open("127.0.0.1", port), f"mosquitto on port {port}")
-    return proc
-
-
 def _free_port() -> int:
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
@@ -96,21 +72,8 @@ def _wait(condition: Callable[[], object], what: str, timeout: float = TIMEOUT) 
 
 @pytest.fixture(scope="session")
 def broker(tmp_path_factory: pytest.TempPathFactory) -> Iterator[str]:
-    url = os.environ.get("HOMECOG_TEST_MQTT_URL", "mqtt://127.0.0.1:1883")
-    address = parse_url(url)
-    if _port_open(address.host, address.port):
+    with mqtt_broker(tmp_path_factory) as url:
         yield url
-        return
-    if address.host != "127.0.0.1" or _mosquitto() is None:
-        reason = f"no MQTT broker at {url} and no mosquitto binary to start one"
-        print(reason)
-        pytest.skip(reason)
-    proc = _start_mosquitto(address.port, tmp_path_factory.mktemp("mosquitto"))
-    try:
-        yield url
-    finally:
-        proc.terminate()
-        proc.wait(10)
 
 
 @pytest.fixture
@@ -296,13 +259,13 @@ def test_bad_urls_and_unreachable_brokers_are_clear_errors(home: Home) -> None:
 
 
 def test_reconnects_after_the_broker_comes_back(home: Home, prefix: str, tmp_path: Path) -> None:
-    if _mosquitto() is None:
+    if mosquitto() is None:
         reason = "no mosquitto binary to run a broker that goes away"
         print(reason)
         pytest.skip(reason)
     port = _free_port()
     url = f"mqtt://127.0.0.1:{port}"
-    proc = _start_mosquitto(port, tmp_path)
+    proc = start_mosquitto(port, tmp_path)
     source = MqttSource(home, url, prefix=prefix)
     try:
         source.start()
@@ -311,7 +274,7 @@ def test_reconnects_after_the_broker_comes_back(home: Home, prefix: str, tmp_pat
         proc.kill()
         proc.wait(10)
         _wait(lambda: not source.connected, "the source to notice the broker has gone")
-        proc = _start_mosquitto(port, tmp_path)  # a fresh broker: no retained states
+        proc = start_mosquitto(port, tmp_path)  # a fresh broker: no retained states
         _wait(lambda: source.connected, "the source to reconnect", timeout=20)
         _publish(url, state_topic(home, "behavior", prefix=prefix), "sleep")
         _wait(lambda: source.snapshot()["behavior"] == "sleep", "a state after the reconnect")

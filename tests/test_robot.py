@@ -311,3 +311,20 @@ def test_eval_days_is_one_json_object_and_refuses_two_evaluations(capsys):
     assert capsys.readouterr().err.strip().splitlines() == [
         "homecog: error: --days and --corrections are two evaluations; give one"
     ]
+
+
+def test_up_takes_the_household_flags_over_the_home_file(capsys):
+    from homecog.cli.main import main
+    from homecog.cli.up import household_settings
+
+    home = load_home_text(STUDIO + "household: {hold: 5, weights: {undo: 4}}\n", "studio.yaml")
+    settings = household_settings(home.household, 20, None, 3, None)
+    assert (settings.undo_window, settings.hold) == (1200.0, 300.0)
+    assert settings.weights == {"explicit": 1, "observed": 3, "undo": 4}
+    assert main(["up", "--household", "paper_ann", "--mqtt", "mqtt://127.0.0.1:1"]) == 2
+    assert capsys.readouterr().err.strip().splitlines() == [
+        "homecog: error: --household lives in the simulated home; it needs --speed > 0, no broker"
+    ]
+    assert main(["up", "--household", str(HOMES / "studio.yaml")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("homecog: error: --household ") and "not compatible" in err[0]

@@ -113,9 +113,13 @@ def up(
     people = household_settings(h.household, undo_window, hold, observed_weight, undo_weight)
     truth = load_home(household) if household is not None else None
     if truth is not None:
-        from homecog.evaluation.evaluate import check_truth
+        from homecog.home.content import is_compatible
 
-        check_truth(h, truth)
+        problems = is_compatible(truth, h)
+        if problems:
+            raise UsageProblemError(
+                f"--household {truth.source}: not compatible with home '{h.name}': {'; '.join(problems)}"
+            )
     settings = Settings.of(token=token)  # or $HOMECOG_TOKEN
     if host not in LOCAL_HOSTS and settings.token is None:
         settings = settings.model_copy(update={"token": secrets.token_urlsafe(24)})

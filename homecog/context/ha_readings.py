@@ -146,8 +146,9 @@ class EntityReadings(ConnectedSource):
 
     def _reject(self, name: str, why: str) -> None:
         with self._lock:
-            self.rejected += 1
             repeated = self._said.get(name) == why
             self._said[name] = why
         if not repeated:
             log.warning("Home Assistant: skipped %s", why)
+        with self._lock:  # counted once logged: whoever waits on the count finds the log line
+            self.rejected += 1

@@ -305,15 +305,12 @@ class IHDRTree(ClusterUpdates, TreeSearch):
     ) -> tuple[list[str], list[str]]:
         """A user's correction: the services they want in ``x``. Returns (added, rejected).
 
-        ``want`` is the whole set the user wants there, or, with ``concerns``, which of those
-        services they want (an addition: ``want=[S], concerns=[S]``; a rejection: ``want=[],
-        concerns=[S]``): the other services keep what they had. ``weight``: how many
-        corrections' worth it counts.
-
-        It takes effect for that user's next cognition at once: it is counted as evidence, for
-        every service it concerns, in that user's layer (:mod:`homecog.knowledge.corrections`).
-        The shared experience from learning is not changed, so other users' answers stay as
-        they were.
+        ``want`` is the whole set wanted there, or, with ``concerns``, which of those services
+        are (an addition: ``want=[S], concerns=[S]``; a rejection: ``want=[], concerns=[S]``):
+        the others keep what they had. ``weight``: how many corrections' worth it counts. It
+        takes effect for that user's next cognition at once, as evidence for every service it
+        concerns in the user's layer (:mod:`homecog.knowledge.corrections`); the shared
+        experience is not changed, so other users' answers stay as they were.
         """
         p = self.point(x)
         wanted = self._service_positions(want)
@@ -388,20 +385,6 @@ class IHDRTree(ClusterUpdates, TreeSearch):
     def service_node(self, a: int) -> Node:
         """The node of service position ``a``."""
         return self._services[a]
-
-    def replay(self, kind: str, user: str | None, payload: dict[str, Any]) -> None:
-        """Apply a logged single sample or correction again (for rebuilds)."""
-        point = Point(codes=tuple(payload["codes"]), readings=tuple(payload["readings"]))
-        if kind == "correction":
-            self.correct_one(
-                point,
-                payload["want"],
-                user or "default",
-                concerns=payload.get("concerns"),
-                weight=payload.get("weight", 1),
-            )
-        else:
-            self.learn_one(point, payload["services"], relevant=payload.get("relevant"))
 
     def shared_clusters(self) -> Iterator[tuple[Node, Cluster]]:
         for node in self.root.iter_dfs():

@@ -65,7 +65,7 @@ from homecog.knowledge.statements import (
     USER_VERSION,
     USER_VERSION_LOCKED,
 )
-from homecog.knowledge.store_log import StoreLog
+from homecog.knowledge.store_log import StoreLog, replay
 
 __all__ = ["Store", "StoreError", "default_url", "migrate", "redact"]
 SAMPLES_PER_ROW = 32768
@@ -260,7 +260,7 @@ class Store(StoreLog):
         replaced = stored is not None and stored != self.home.content_hash
         if not replaced:
             for kind, user, payload in self._corrections():
-                tree.replay(kind, user, payload)
+                replay(tree, kind, user, payload)
         with self._tx() as conn:
             now = datetime.now(UTC).replace(tzinfo=None)
             if replaced:

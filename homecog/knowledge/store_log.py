@@ -16,6 +16,7 @@ from sqlalchemy import func, select, text
 from sqlalchemy.engine import Connection, Engine
 
 from homecog.errors import StoreError
+from homecog.home.codec import Point
 from homecog.knowledge import sample_log
 from homecog.knowledge.database import redact
 from homecog.knowledge.ihdr import IHDRTree
@@ -149,7 +150,7 @@ class StoreLog:
             tree.learn_many(samples_from(self.home, [sample_log.unpack(r.data) for r in parts]))
         for r in rows:
             if r.kind in ("correction", "sample"):
-                tree.replay(r.kind, r.user, json.loads(r.payload))
+                replay(tree, r.kind, r.user, json.loads(r.payload))
         return tree
 
     def drop_all(self) -> None:
@@ -164,3 +165,18 @@ def stored_homes(conn: Connection) -> Iterator[tuple[str, str, bool]]:
     rows = conn.execute(select(HomeRow.name, HomeRow.content_hash, HomeRow.built_at).order_by(HomeRow.name))
     for name, content_hash, built_at in rows:
         yield name, content_hash, built_at is not None
+
+
+def replay(tree: IHDRTree, kind: str, user: str | None, payload: dict[str, Any]) -> None:
+    """Apply a logged single sample or correction to ``tree`` again (rebuilds, a new build)."""
+    point = Point(codes=tuple(payload["codes"]), readings=tuple(payload["readings"]))
+    if kind == "correction":
+        tree.correct_one(
+            point,
+            payload["want"],
+            user or "default",
+            concerns=payload.get("concerns"),
+            weight=payload.get("weight", 1),
+        )
+    else:
+        tree.learn_one(point, payload["services"], relevant=payload.get("relevant"))
