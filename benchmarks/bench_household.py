@@ -42,15 +42,15 @@ PAIRS = [
 
 def loops(days: int, console: Console) -> None:
     table = Table(title=f"The closed loop, {days} simulated days", title_justify="left")
-    for col in ("home", "household", "day 1", "last 3 a day", "share of day 1", "undone (last 3)"):
+    for col in ("home", "household", "from", "day 1", "last 3 a day", "share of day 1", "undone (last 3)"):
         table.add_column(col, justify="right")
     table.add_column("fights", justify="right")
     table.add_column("seconds", justify="right")
     first = None
-    for home_name, truth_name in PAIRS:
+    for home_name, truth_name, start in PAIRS:
         home, truth = load_home(home_name), load_home(truth_name)
         store = Store("sqlite://", home)
-        result = closed_loop(home, truth, store, open_tree(home, store), days=days)
+        result = closed_loop(home, truth, store, open_tree(home, store), days=days, start=start)
         store.close()
         first = first or result
         d, s = result["days"], result["summary"]
@@ -59,6 +59,7 @@ def loops(days: int, console: Console) -> None:
         table.add_row(
             home.name,
             truth.name,
+            start[:10],
             str(d[0]["household_switches"]),
             f"{last:.1f}",
             share,

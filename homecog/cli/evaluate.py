@@ -54,6 +54,10 @@ def eval_command(
             "simulated days; the household corrects it only by switching.",
         ),
     ] = None,
+    start: Annotated[
+        str | None,
+        typer.Option(help="With --days: the simulated date and time to start at (default 2021-06-21 06:00)."),
+    ] = None,
     json: JsonOption = False,
 ) -> None:
     """Precision, recall and F1 of every method on scenarios; with --corrections, how the robot
@@ -65,8 +69,10 @@ def eval_command(
     if days is not None:
         if corrections:
             raise UsageProblemError("--days and --corrections are two evaluations; give one")
-        _closed_loop(h, t, days=days, seed=seed, db=db, report=report, json=json)
+        _closed_loop(h, t, days=days, seed=seed, db=db, report=report, json=json, start=start)
         return
+    if start is not None:
+        raise UsageProblemError("--start is the closed loop's; give it with --days")
     names = method_names(methods)
     if scenarios.strip().isdigit():
         cases: int | Path = int(scenarios)
@@ -109,7 +115,15 @@ def eval_command(
 
 
 def _closed_loop(
-    h: Any, t: Any, *, days: int, seed: int, db: str | None, report: Path | None, json: bool
+    h: Any,
+    t: Any,
+    *,
+    days: int,
+    seed: int,
+    db: str | None,
+    report: Path | None,
+    json: bool,
+    start: str | None,
 ) -> None:
     """``homecog eval --days``: the robot (knowledge in ``db``, else in memory) and a household of
     ``t``'s wishes live ``days`` days in ``h``."""
@@ -124,7 +138,8 @@ def _closed_loop(
     store = Store(db or "sqlite://", h)
     try:
         tree = open_tree(h, store, progress=status)
-        result = closed_loop(h, t, store, tree, days=days, seed=seed, progress=status)
+        when = {} if start is None else {"start": start}
+        result = closed_loop(h, t, store, tree, days=days, seed=seed, progress=status, **when)
     finally:
         store.close()
     if report is not None:

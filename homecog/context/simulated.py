@@ -162,16 +162,22 @@ class SimulatedHome(ChangeNotifier):
         """Every feature and device as text, as a scenario file or ``--context`` takes them."""
         return self._snapshot(self._states)
 
-    def preview(self, device: str, on: bool) -> dict[str, str]:
-        """The snapshot as it would be now with ``device`` switched (the readings it moves
-        moved too): what a person who knows their home expects of a switch."""
-        return self._snapshot({**self._states, device: on})
+    def actual(self) -> dict[str, str]:
+        """The home as it is, not as its sensors read it (no sensor noise): what the people who
+        live there feel."""
+        return self._snapshot(self._states, noisy=False)
 
-    def _snapshot(self, states: Mapping[str, bool]) -> dict[str, str]:
+    def preview(self, device: str, on: bool) -> dict[str, str]:
+        """The home as it would be now with ``device`` switched (the readings it moves moved too,
+        without sensor noise): what a person who knows their home expects of a switch."""
+        return self._snapshot({**self._states, device: on}, noisy=False)
+
+    def _snapshot(self, states: Mapping[str, bool], *, noisy: bool = True) -> dict[str, str]:
         values = self._routine.values_at(self._hours)
         numbers = numeric_readings(self.home, self._now, states, self._weather)
         minute = self._now.toordinal() * 1440 + self._now.hour * 60 + self._now.minute
         noise = np.random.default_rng([self.seed, minute]).standard_normal(len(self.home.features))
+        noise *= noisy
         out: dict[str, str] = {}
         for i, f in enumerate(self.home.features):
             if f.name in self._overrides:

@@ -6,7 +6,8 @@ hand once it has been so for :data:`DELAY` seconds. A person does not switch bac
 switch while their situation is the same (a curtain opened because the room was dark is not
 closed again because the daylight it let in makes the room light), nor switch one where the
 switch would make them want it switched back (it knows its home: the readings the switch
-moves, as the simulated home computes them). It never touches the HMI:
+moves, as the simulated home computes them). It feels the home as it is, not as the sensors
+read it (their noise is the robot's alone). It never touches the HMI:
 the robot learns from its switches alone.
 
 The closed loop (:func:`closed_loop`) lets both live ``days`` simulated days in the home (its
@@ -83,7 +84,7 @@ class SimulatedHousehold:
 
     def step(self) -> list[tuple[str, bool]]:
         """Switch by hand what has not been as wanted for ``delay`` seconds; what was switched."""
-        now, context = self.source.clock(), self.source.snapshot()
+        now, context = self.source.clock(), self.source.actual()  # what they feel, not the sensors
         wished = self.wishes(context)
         where = situation(self.truth, context)
         for device in [d for d, (w, _) in self._ours.items() if w != where]:
@@ -151,7 +152,7 @@ def closed_loop(
     from homecog.robot.runtime import Runtime
 
     config = household or home.household
-    source = SimulatedHome(home, start=start, seed=seed, routine_switches=False)
+    source = SimulatedHome(home, start=start, seed=seed, routine_switches=False)  # ContextError: a bad start
     runtime = Runtime(home=home, store=store, tree=tree, source=source, household=config)
     people = SimulatedHousehold(truth, source, undo_window=config.undo_window)
     out: list[Day] = []

@@ -88,8 +88,9 @@ class Actor:
             )
             self.attribution.forget(device, on)
 
-    def todo(self, now: Mapping[str, str], proposed: list[str]) -> list[str]:
-        """The proposed services to carry out now.
+    def todo(self, now: Mapping[str, str], proposed: list[str], *, one_switch: bool = False) -> list[str]:
+        """The proposed services to carry out now (``one_switch``: the errands and only the first
+        service that switches something, so the robot can look again before the next).
 
         A service that switches devices is done while one of them is not as it sets it, once
         per change of the home (not once a tick while a device is slow to report), not while a
@@ -99,7 +100,7 @@ class Actor:
         at = self.source.clock()
         held = self.holds.held_devices(now, at=at)
         settling = self.settling.settled_devices(now)
-        out = []
+        out, switching = [], False
         for name in proposed:
             sets = self.home.services[self.home.service_index(name)].sets
             if sets:
@@ -112,20 +113,29 @@ class Actor:
                     self.skipped_settling += 1
                     continue
                 if pending and reachable and self._sent.get(name) != now:
+                    if one_switch and switching:
+                        continue
                     self._sent[name] = dict(now)
                     out.append(name)
+                    switching = True
             elif self.body is not None and name not in self._proposed:
                 out.append(name)
         self._proposed = set(proposed)
         return out
 
     def act(
-        self, now: Mapping[str, str], proposed: list[str], *, user: str, why: Callable[[list[str]], list[Any]]
+        self,
+        now: Mapping[str, str],
+        proposed: list[str],
+        *,
+        user: str,
+        why: Callable[[list[str]], list[Any]],
+        one_switch: bool = False,
     ) -> RobotAction | None:
         """Carry out what is to do of ``proposed`` in ``now``; the action journaled (``why``
         gives the explanations of its services), or ``None`` when there was nothing to do or it
         could not be planned."""
-        todo = self.todo(now, proposed)
+        todo = self.todo(now, proposed, one_switch=one_switch)
         if not todo:
             return None
         self._switched = []

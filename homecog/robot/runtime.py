@@ -192,24 +192,40 @@ class Runtime:
         return after != before
 
     def act_now(self, user: str) -> Acting | None:
-        """The robot acts on what it proposes for ``user`` in the context now (and a situation
-        that ended is learned from: :meth:`Guidance.quiet`)."""
+        """The robot acts on what it proposes for ``user`` in the context now, one switch at a
+        time: after each it looks at the home again and decides anew (a curtain it opened makes
+        the room light, and the ceiling light it also proposed in the dark is wanted no more).
+        A situation that ended is learned from first (:meth:`Guidance.quiet`). What was done
+        last, or ``None``."""
         now = self.source.snapshot()
         self.holds.observe(now)
         self._follow_situation(now, user)
-        point = self.space.point(now)
-        with self.lock:
-            proposed = self.tree.predict_one(point, user=user)
-        done = self.act(now, proposed, user=user)
-        if done is not None:  # the situation's latest context: the home as the robot left it
-            self._situation = (self._situation[0], self.source.snapshot())
+        done = None
+        for _ in range(len(self.home.devices) + 1):
+            point = self.space.point(now)
+            with self.lock:
+                proposed = self.tree.predict_one(point, user=user)
+            acted = self.act(now, proposed, user=user, one_switch=True)
+            if acted is None:
+                break
+            done, now = acted, self.source.snapshot()
+            self._situation = (self._situation[0], now)  # the situation's latest: as the robot left it
         return done
 
-    def act(self, now: Mapping[str, str], proposed: list[str], *, user: str | None = None) -> Acting | None:
-        """Carry out the proposed services that have something to do (:class:`Actor`); what was
-        done (``None``: nothing to do), the action also in the journal."""
+    def act(
+        self,
+        now: Mapping[str, str],
+        proposed: list[str],
+        *,
+        user: str | None = None,
+        one_switch: bool = False,
+    ) -> Acting | None:
+        """Carry out the proposed services that have something to do (:class:`Actor`; with
+        ``one_switch``, the errands and the first switch only); what was done (``None``:
+        nothing to do), the action also in the journal."""
         who = user or self.household.default_user
-        action = self.actor.act(now, proposed, user=who, why=lambda todo: self._why(now, todo, who))
+        why = lambda todo: self._why(now, todo, who)  # noqa: E731
+        action = self.actor.act(now, proposed, user=who, why=why, one_switch=one_switch)
         if action is None:
             return None
         self.publish("action", action.as_dict())
