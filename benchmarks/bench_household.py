@@ -33,10 +33,12 @@ from homecog.knowledge.store import Store
 from homecog.robot.runtime import Runtime
 
 TESTS = Path(__file__).parent.parent / "tests" / "homes"
+JUNE, MARCH = "2021-06-21 06:00", "2021-03-15 06:00"  # warm days about 25 °C at noon; cool ones
 PAIRS = [
-    ("paper", "paper_ann"),
-    ("paper", "paper"),
-    (str(TESTS / "studio.yaml"), str(TESTS / "studio_kim.yaml")),
+    ("paper", "paper_ann", JUNE),
+    ("paper", "paper_ann", MARCH),
+    ("paper", "paper", JUNE),
+    (str(TESTS / "studio.yaml"), str(TESTS / "studio_kim.yaml"), JUNE),
 ]
 
 
@@ -100,9 +102,10 @@ def latency(switches: int, console: Console) -> None:
             source.switch(device, on)  # a person: told to the runtime, learned, logged
             runtime.cognize(source.snapshot(), "default")
             observed.append(time.perf_counter() - t)
-            ctx = scenarios[switches + k].context
+            point = runtime.space.point(scenarios[switches + k].context)
             t = time.perf_counter()
-            runtime.correct(ctx, [], "kim")
+            with runtime.lock:
+                runtime.store.correct(runtime.tree, point, [], "kim")
             explicit.append(time.perf_counter() - t)
         learned = runtime.guidance.counts
         store.close()
@@ -112,7 +115,10 @@ def latency(switches: int, console: Console) -> None:
     )
     for col in ("", "p50 ms", "p95 ms", "max ms"):
         table.add_column(col, justify="right")
-    for name, xs in (("observed switch → learned → cognition", observed), ("explicit correction", explicit)):
+    for name, xs in (
+        ("observed switch → learned → cognition", observed),
+        ("explicit correction committed", explicit),
+    ):
         arr = np.array(xs) * 1000
         table.add_row(
             name, f"{np.percentile(arr, 50):.2f}", f"{np.percentile(arr, 95):.2f}", f"{arr.max():.2f}"

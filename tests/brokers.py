@@ -1,4 +1,4 @@
-"""An MQTT broker for the tests (SPEC §10): a real Mosquitto.
+"""An MQTT broker for the tests: a real Mosquitto.
 
 :func:`mqtt_broker` gives the URL of the broker at ``$HOMECOG_TEST_MQTT_URL`` or 127.0.0.1:1883
 (``.ci/servers.sh`` starts one on CI); when nothing answers there and ``mosquitto`` is installed,

@@ -1,4 +1,4 @@
-"""The running robot and the household's hands in a real home (SPEC §7.1): a real Mosquitto broker
+"""The running robot and the household's hands in a real home: a real Mosquitto broker
 and a real Home Assistant 2024.3.3, with the robot (:class:`~homecog.robot.runtime.Runtime`)
 listening to every device change they report.
 

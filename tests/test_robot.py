@@ -1,4 +1,4 @@
-"""The running robot and the household (SPEC §7.1): whose change, what it teaches, never fight,
+"""The running robot and the household: whose change, what it teaches, never fight,
 the journal and its undo, partial evidence, the log's kinds through a rebuild."""
 
 from __future__ import annotations

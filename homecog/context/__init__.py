@@ -1,4 +1,4 @@
-"""Context sources: where the running robot learns the state of the home (SPEC §10, §7.1).
+"""Context sources: where the running robot learns the state of the home.
 
 A source gives the whole context — every feature and every device, values written as in a
 scenario file (``{"time": "07:00", "temperature": "25", "location": "bed", "window": "off",

@@ -1,4 +1,4 @@
-"""A simulated household, and the robot and the household living days together (SPEC §7.1).
+"""A simulated household, and the robot and the household living days together.
 
 The household acts by the wishes of a *truth* home (compatible with the robot's): whenever a
 device is not as the truth's comfort rules want it in the context now, a person switches it by

@@ -1,5 +1,5 @@
 """The ``household`` section of a home file: how the running robot learns from what the people
-who live there do by hand, and how it keeps out of their way (SPEC §7.1).
+who live there do by hand, and how it keeps out of their way.
 
 .. code-block:: yaml
 

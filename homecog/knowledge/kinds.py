@@ -1,4 +1,4 @@
-"""Where a correction came from, as the experience log keeps it (SPEC §7, §7.1).
+"""Where a correction came from, as the experience log keeps it.
 
 A correction is *explicit* (a user said what they want: the HMI, the API, ``homecog correct``),
 *observed* (the running robot saw a person switch a device by hand: the service that makes the

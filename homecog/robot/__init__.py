@@ -1,4 +1,4 @@
-"""The running robot (SPEC §7.1, §10): what it does between a context source and the HMI.
+"""The running robot: what it does between a context source and the HMI.
 
 Each part is one job, and :class:`~homecog.robot.runtime.Runtime` puts them together:
 

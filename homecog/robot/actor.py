@@ -1,4 +1,4 @@
-"""The robot acting on what it proposes (SPEC §8, §10, §7.1): the proposed services that have
+"""The robot acting on what it proposes: the proposed services that have
 something to do are planned, in their order, and carried out — IoT switches through the context
 source, and in the simulated home everything else by the simulated robot's body; a failed
 command is replanned and logged, never raised.

@@ -1,4 +1,4 @@
-"""Whose change is it (SPEC §7.1): the robot's own switch, reported back by the home, or a
+"""Whose change is it: the robot's own switch, reported back by the home, or a
 person's — or nobody's, an automation's, or set by hand through the API.
 
 A change the robot commanded and then sees reported is its own: every command is expected for a

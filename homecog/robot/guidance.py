@@ -1,4 +1,4 @@
-"""What the household's hands teach the robot (SPEC §7.1).
+"""What the household's hands teach the robot.
 
 A person's switch is an *observed correction*: the service that makes it (the one that sets just
 that device to that state) was wanted in the context just before it, by that person. A person

@@ -1,4 +1,4 @@
-"""Never fight (SPEC §7.1): after a person switches a device, the robot leaves it alone while the
+"""Never fight: after a person switches a device, the robot leaves it alone while the
 user's situation is the same — no context feature but the clock and the readings has changed —
 and, when the situation moves on sooner, until the hold runs out: a person's switch is theirs
 for as long as they are doing what they were doing, and a moment's change of situation does not

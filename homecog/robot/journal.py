@@ -1,4 +1,4 @@
-"""What the robot did, when and why (SPEC §7.1): its latest actions, each with the services it
+"""What the robot did, when and why: its latest actions, each with the services it
 carried out, the devices it switched, the context it acted in and the explanations of the
 services, and which of its switches were undone (by a person's hand or from the HMI).
 

@@ -1,4 +1,4 @@
-"""The robot does not undo its own switch (SPEC §7.1, beyond it): a device it switched is not
+"""The robot does not undo its own switch: a device it switched is not
 switched back while the user's situation is the same and the home is as the switch left it.
 
 Its rules and the readings its own switch causes can disagree — a curtain opened to a room that

@@ -1,4 +1,4 @@
-"""The HTTP contract of what the robot did and its undo (SPEC §7.1): ``GET /api/actions`` and
+"""The HTTP contract of what the robot did and its undo: ``GET /api/actions`` and
 ``POST /api/actions/{id}/undo``."""
 
 from __future__ import annotations
