@@ -252,10 +252,11 @@ def test_the_robots_own_command_echoed_back_is_not_learned(mqtt_home: Callable[.
         runtime.status()["learned"] == {"observed": 0, "undo": 0, "quiet": 0}
         and runtime.status()["ignored"] == {}
     )
-    [action] = runtime.journal.recent()
-    assert (action.services, action.switches, action.undone) == (
-        ["RaiseBlind", "RadioOn"], [("blind", True), ("radio", True)], {}
-    )  # fmt: skip
+    # one switch at a time, looking at the home again between them: two actions, newest first
+    assert [(a.services, a.switches, a.undone) for a in runtime.journal.recent()] == [
+        (["RadioOn"], [("radio", True)], {}),
+        (["RaiseBlind"], [("blind", True)], {}),
+    ]
 
 
 def test_the_robot_leaves_alone_a_device_a_person_switched(mqtt_home: Callable[..., MqttHome]) -> None:
@@ -278,7 +279,8 @@ def test_the_robot_leaves_alone_a_device_a_person_switched(mqtt_home: Callable[.
     assert h.devices.sent() == [("blind", "on")]  # the other device it did switch, once
     assert verdicts == [("radio", False, "person"), ("blind", True, "robot")]
     status = runtime.status()
-    assert (status["household_switches"], status["fights"], status["left_alone"]) == (1, 0, 4)
+    # left out at every look: twice in the tick that raised the blind, once in each of the others
+    assert (status["household_switches"], status["fights"], status["left_alone"]) == (1, 0, 5)
     assert [c.concerns for c in history(h.store)] == [["RadioOff"]]
 
 
@@ -519,7 +521,8 @@ def test_an_automations_change_teaches_nothing_and_the_robots_own_call_neither(
     assert runtime.guidance.counts == {"automation": 1}  # the robot's own blind: nothing learned
     assert history(h.store) == [] and h.store.experience_count() == h.experiences
     status = runtime.status()
-    assert (status["household_switches"], status["fights"], status["left_alone"]) == (1, 0, 3)
+    # left out at every look: twice in the tick that raised the blind, once in each of the others
+    assert (status["household_switches"], status["fights"], status["left_alone"]) == (1, 0, 4)
     assert status["learned"] == {"observed": 0, "undo": 0, "quiet": 0} and status["ignored"] == {
         "automation": 1
     }
