@@ -139,7 +139,7 @@ def test_a_persons_switch_is_learned_for_the_next_cognition(stored, tmp_path):
     answer = runtime.cognize({**relax, "desk_lamp": "off"}, "default")
     assert "LampOn" in answer["services"]
     lamp = next(e for e in answer["explanations"] if e["service"] == "LampOn")
-    assert lamp["user"] == "default" and lamp["evidence"]["agreed"] == 1
+    assert lamp["user"] == "default" and lamp["evidence"]["agreed"] == 5  # a switch: five corrections' worth
     assert runtime.holds.held("desk_lamp", runtime.context(), at=runtime.source.clock())
     assert before["activity"] == "work"
 

@@ -78,10 +78,10 @@ def up(
         typer.Option(min=0, max=1440, help="Minutes the robot leaves a device a person switched (30)."),
     ] = None,
     observed_weight: Annotated[
-        int | None, typer.Option(min=1, max=100, help="Corrections' worth of a person's switch (1).")
+        int | None, typer.Option(min=1, max=100, help="Corrections' worth of a person's switch (5).")
     ] = None,
     undo_weight: Annotated[
-        int | None, typer.Option(min=1, max=100, help="Corrections' worth of an undo (1).")
+        int | None, typer.Option(min=1, max=100, help="Corrections' worth of an undo (5).")
     ] = None,
 ) -> None:
     """Start the robot: train or reuse the Q table, build or reuse the tree, serve the HMI."""

@@ -8,7 +8,7 @@ who live there do by hand, and how it keeps out of their way.
                                # is an undo (a rejection of the robot's service where it acted)
       hold: 30                 # minutes: after a person switches a device, the robot leaves it
                                # alone this long at most (and while the situation is the same)
-      weights: {explicit: 1, observed: 1, undo: 1}   # corrections' worth of each kind
+      weights: {explicit: 1, observed: 5, undo: 5}   # corrections' worth of each kind
       users: {8a2c41…: ann, 5f11e0…: kim}            # who is who, as a source names people
                                # (Home Assistant's user ids); with a map, a person it lacks is
                                # not learned from; without one, every person is `default_user`
@@ -18,7 +18,7 @@ Every key is optional; the section does not change what the robot learns from th
 (it is left out of the content hash).
 
 >>> parse_household(None).undo_window, parse_household(None).weights
-(900.0, {'explicit': 1, 'observed': 1, 'undo': 1})
+(900.0, {'explicit': 1, 'observed': 5, 'undo': 5})
 >>> h = parse_household({"hold": 5, "weights": {"undo": 3}})
 >>> h.hold, h.weight("undo"), h.user("8a2c41"), parse_household({"users": {"8a2c41": "ann"}}).user("x")
 (300.0, 3, 'default', None)
@@ -36,6 +36,10 @@ from dataclasses import dataclass, field
 from homecog.errors import HomeFileError
 
 KINDS = ("explicit", "observed", "undo")
+#: a correction told is a whole set; a person's switch, or an undo, speaks of one service and is
+#: deliberate: it counts as five of the situations lived through without a switch, which say
+#: "not wanted" once each (measured: docs/design.md, Learning from the household)
+DEFAULT_WEIGHTS = {"explicit": 1, "observed": 5, "undo": 5}
 
 
 def _fail(path: str, message: str) -> HomeFileError:
@@ -48,7 +52,7 @@ class Household:
 
     undo_window: float = 900.0
     hold: float = 1800.0
-    weights: dict[str, int] = field(default_factory=lambda: dict.fromkeys(KINDS, 1))
+    weights: dict[str, int] = field(default_factory=lambda: dict(DEFAULT_WEIGHTS))
     users: dict[str, str] | None = None
     default_user: str = "default"
 
@@ -60,7 +64,7 @@ class Household:
 
     def weight(self, kind: str) -> int:
         """How many corrections' worth a correction of ``kind`` counts."""
-        return self.weights.get(kind, 1)
+        return self.weights.get(kind, DEFAULT_WEIGHTS.get(kind, 1))
 
     def user(self, person: str | None) -> str | None:
         """The homecog user of a person as the source names them (``None``: nobody known)."""

@@ -121,9 +121,8 @@ class Guidance:
         services = [
             name for (device, on), name in self._services.items() if (context.get(device) == "on") != on
         ]
-        if services:
-            weight = self.household.weight("observed")
-            self._learn(context, [], user, Kind("observed", services, weight, {"quiet": True}))
+        if services:  # one correction's worth, however much a switch is worth
+            self._learn(context, [], user, Kind("observed", services, 1, {"quiet": True}))
             self.counts["quiet"] += 1
         return services
 
