@@ -328,3 +328,19 @@ def test_up_takes_the_household_flags_over_the_home_file(capsys):
     assert main(["up", "--household", str(HOMES / "studio.yaml")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("homecog: error: --household ") and "not compatible" in err[0]
+
+
+def test_eval_days_refuses_a_start_that_is_no_date_before_learning(capsys):
+    from homecog.cli.main import main
+
+    studio, kim = str(HOMES / "studio.yaml"), str(HOMES / "studio_kim.yaml")
+    assert main(["eval", "--home", studio, "--truth", kim, "--days", "1", "--start", "soon"]) == 2
+    captured = capsys.readouterr()
+    assert captured.err.strip().splitlines() == [
+        "homecog: error: start: not a date and time: 'soon'; expected e.g. '2021-06-21 06:00'"
+    ]
+    assert "training" not in captured.out + captured.err
+    assert main(["eval", "--home", studio, "--start", "2021-03-01 06:00"]) == 2
+    assert (
+        capsys.readouterr().err.strip() == "homecog: error: --start is the closed loop's; give it with --days"
+    )

@@ -133,6 +133,10 @@ def _closed_loop(
     from homecog.knowledge.store import Store
 
     check_truth(h, t)
+    if start is not None:
+        from homecog.context.simulated import parse_start
+
+        parse_start(start)  # a start that is no date and time fails before any learning
     if report is not None:
         check_writable(report / "household.md")
     store = Store(db or "sqlite://", h)

@@ -46,7 +46,8 @@ TEMPERATURE_NOISE = 0.2  # °C, standard deviation of the thermometer
 ILLUMINATION_NOISE = 0.02  # relative standard deviation of the light sensor
 
 
-def _parse_start(start: datetime | str) -> datetime:
+def parse_start(start: datetime | str) -> datetime:
+    """A simulated date and time; :class:`ContextError` naming what is not one."""
     if isinstance(start, datetime):
         return start.replace(tzinfo=None)
     try:
@@ -93,7 +94,7 @@ class SimulatedHome(ChangeNotifier):
         self.routine_switches = routine_switches
         routine = home.routine
         self._routine: Routine = routine if isinstance(routine, Routine) else default_routine(home.features)
-        self._now = _parse_start(start)
+        self._now = parse_start(start)
         self._weather = Weather()
         self._overrides: dict[str, str] = {}
         self._states = dict.fromkeys(home.device_names, False)
