@@ -344,3 +344,62 @@ def test_eval_days_refuses_a_start_that_is_no_date_before_learning(capsys):
     assert (
         capsys.readouterr().err.strip() == "homecog: error: --start is the closed loop's; give it with --days"
     )
+
+
+def test_a_switch_never_reported_is_given_up(paper):
+    settling = Settling(paper)
+    after = {"time": "19:00", "temperature": "29.8", "illumination": "300", "location": "sofa"}
+    after |= {"posture": "sit", "behavior": "watch_tv", "lamp": "off"}
+    settling.switched("lamp", True, at=0.0)
+    assert settling.settled("lamp", after, at=30.0)  # its report may still come
+    assert not settling.settled("lamp", after, at=61.0)  # it never came: the lamp is free again
+    assert not settling.settled("lamp", after, at=62.0)
+
+
+def test_a_home_without_categorical_features_holds_by_the_clock_and_the_hold():
+    home = load_home_text(
+        """
+name: clocked
+context:
+  time: {kind: clock, bins: {day: ["06:00", "18:00"], night: ["18:00", "06:00"]}}
+  light: {kind: numeric, unit: lx, bins: {dim: [0, 200], bright: [200, .inf]}}
+devices: {lamp: {}}
+services:
+  LampOn: {category: on, set: {lamp: on}}
+  LampOff: {category: off, set: {lamp: off}}
+comfort:
+  lamp: [{when: {light: [dim]}, want: on}, {want: off}]
+""",
+        "clocked.yaml",
+    )
+    from homecog.robot.holds import Holds
+
+    holds = Holds(home, hold=1800)
+    holds.hold("lamp", {"time": "10:00", "light": "50"}, at=0.0)
+    assert holds.held("lamp", {"time": "17:00", "light": "50"}, at=25200.0)  # the same day bin
+    assert not holds.held("lamp", {"time": "19:00", "light": "50"}, at=32400.0)  # night: given back
+
+
+def test_a_database_that_fails_stops_neither_the_robot_nor_an_undo_for_good(stored, tmp_path, monkeypatch):
+    from homecog.errors import StoreError
+
+    runtime = make_runtime(stored, tmp_path)
+    client = TestClient(create_app(runtime))
+    runtime.source.clock = lambda: 0.0  # type: ignore[method-assign]
+    runtime.act_now("default")
+    action = runtime.journal.recent(1)[0]
+    real = runtime.store.correct
+
+    def down(*args, **kwargs):
+        raise StoreError("--db sqlite:///k.sqlite: cannot use the database: disk I/O error")
+
+    monkeypatch.setattr(runtime.store, "correct", down)
+    runtime.source.set_context({"activity": "relax"})
+    runtime.source.clock = lambda: 1000.0  # type: ignore[method-assign]
+    assert runtime.tick(0) is not None  # the work situation ended: not learned, the robot goes on
+    failed = client.post(f"/api/actions/{action.id}/undo")
+    assert failed.status_code == 503 and not action.undone_here and action.undone == {}
+    monkeypatch.setattr(runtime.store, "correct", real)
+    done = client.post(f"/api/actions/{action.id}/undo")
+    assert done.status_code == 200 and done.json()["rejected"] == action.services
+    assert action.undone_here and set(action.undone) == {d for d, _ in action.switches}

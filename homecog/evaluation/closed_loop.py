@@ -70,7 +70,7 @@ class SimulatedHousehold:
         self._mine: tuple[str, bool] | None = None
         self._robot: dict[str, tuple[bool, float]] = {}  # device -> the robot's last switch
         # device -> the situation of our last switch of it and the state we set
-        self._ours: dict[str, tuple[tuple[str | None, ...], bool]] = {}
+        self._ours: dict[str, tuple[tuple[object, ...], bool]] = {}
         self.source.listen(self.seen)
 
     def wishes(self, context: dict[str, str]) -> dict[str, bool]:

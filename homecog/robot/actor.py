@@ -87,6 +87,7 @@ class Actor:
                 "the switch of %s %s failed; its report is not awaited", device, "on" if on else "off"
             )
             self.attribution.forget(device, on)
+            self.settling.forget(device)
 
     def todo(self, now: Mapping[str, str], proposed: list[str], *, one_switch: bool = False) -> list[str]:
         """The proposed services to carry out now (``one_switch``: the errands and only the first
@@ -99,7 +100,7 @@ class Actor:
         devices = device_states(self.home, now)
         at = self.source.clock()
         held = self.holds.held_devices(now, at=at)
-        settling = self.settling.settled_devices(now)
+        settling = self.settling.settled_devices(now, at=at)
         out, switching = [], False
         for name in proposed:
             sets = self.home.services[self.home.service_index(name)].sets
@@ -155,7 +156,7 @@ class Actor:
         self.acted = result
         for device, on in switched:
             self.holds.robot_switched(device, now)
-            self.settling.switched(device, on)
+            self.settling.switched(device, on, at=self.source.clock())
         return self.journal.add(
             at=self.source.clock(),
             services=todo,

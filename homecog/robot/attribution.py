@@ -39,7 +39,8 @@ class Attribution:
     def expect(self, device: str, on: bool, *, at: float) -> None:
         """The robot commands ``device`` to ``on`` now."""
         with self._lock:
-            self._pending.setdefault(device, []).append((on, at))
+            pending = [(o, t) for o, t in self._pending.get(device, []) if at - t <= self.expect_seconds]
+            self._pending[device] = [*pending, (on, at)]
 
     def forget(self, device: str, on: bool) -> None:
         """A command that failed: no report of it will come."""

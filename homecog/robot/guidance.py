@@ -140,11 +140,11 @@ class Guidance:
         return list(action.services)
 
     def _undo(self, action: Any, change: DeviceChange, user: str, *, by: str) -> str:
-        action.undone[change.device] = by
         weight = self.household.weight("undo")
         for service in self._services_of(action.services, change.device):
             note = {"action": action.id, "device": change.device, "by": by}
             self._learn(action.context, [], user, Kind.undo(service, weight=weight, **note))
+        action.undone[change.device] = by  # once learned
         self.counts["undo"] += 1
         return "undo"
 

@@ -27,12 +27,25 @@ from __future__ import annotations
 import threading
 from collections.abc import Mapping
 
+from homecog.errors import ContextError
 from homecog.home.model import Home
 
 
-def situation(home: Home, context: Mapping[str, str]) -> tuple[str | None, ...]:
-    """The user's situation: the context less the clock and the readings (and the devices)."""
-    return tuple(context.get(f.name) for f in home.features if f.kind == "categorical")
+def situation(home: Home, context: Mapping[str, str]) -> tuple[object, ...]:
+    """The user's situation: the context less the clock and the readings (and the devices); in
+    a home without categorical features, the clock's bin (without a clock either: nothing, and
+    a hold is the hold time alone)."""
+    features = [f for f in home.features if f.kind == "categorical"]
+    if features:
+        return tuple(context.get(f.name) for f in features)
+    out: list[object] = []
+    for f in home.features:
+        if f.kind == "clock":
+            try:
+                out.append(f.discretize(context.get(f.name)))
+            except (ContextError, ValueError, TypeError):
+                out.append(None)
+    return tuple(out)
 
 
 class Holds:
@@ -41,8 +54,8 @@ class Holds:
     def __init__(self, home: Home, *, hold: float) -> None:
         self.home = home
         self.hold_seconds = hold
-        self._held: dict[str, tuple[tuple[str | None, ...], float]] = {}
-        self._last: dict[str, tuple[str | None, ...]] = {}  # a person's last switch: for fights
+        self._held: dict[str, tuple[tuple[object, ...], float]] = {}
+        self._last: dict[str, tuple[object, ...]] = {}  # a person's last switch: for fights
         self.fights = 0
         self._lock = threading.Lock()
 
@@ -60,7 +73,8 @@ class Holds:
             if entry is None:
                 return False
             where, since = entry
-            if where == situation(self.home, context) or 0 <= at - since < self.hold_seconds:
+            same = bool(where) and where == situation(self.home, context)
+            if same or 0 <= at - since < self.hold_seconds:
                 return True
             del self._held[device]
             return False

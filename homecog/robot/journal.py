@@ -46,7 +46,7 @@ class RobotAction:
             "user": self.user,
             "why": self.why,
             "actions": self.done,
-            "undone": [{"device": d, "by": by} for d, by in self.undone.items()],
+            "undone": [{"device": d, "by": by} for d, by in dict(self.undone).items()],
             "undone_here": self.undone_here,
         }
 

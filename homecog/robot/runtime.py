@@ -29,7 +29,7 @@ import orjson
 
 from homecog.context import ContextSource, DeviceChange, LivingSource, SettableSource
 from homecog.context.simulated import SimulatedHome
-from homecog.errors import ContextError, FixedContextError
+from homecog.errors import ContextError, FixedContextError, StoreError
 from homecog.home.codec import Space, json_context, parse_services
 from homecog.home.household import Household
 from homecog.home.model import Home, format_number
@@ -85,6 +85,7 @@ class Runtime:
         )
         self.household_switches = 0  # device changes by people (and automations) seen
         self._situation: tuple[float, dict[str, str] | None] = (0.0, None)  # since, latest context
+        self._acting = threading.RLock()  # the robot acts, or an action is undone: one at a time
         self.source.listen(self._changed)
 
     @property
@@ -197,6 +198,10 @@ class Runtime:
         the room light, and the ceiling light it also proposed in the dark is wanted no more).
         A situation that ended is learned from first (:meth:`Guidance.quiet`). What was done
         last, or ``None``."""
+        with self._acting:
+            return self._act_now(user)
+
+    def _act_now(self, user: str) -> Acting | None:
         now = self.source.snapshot()
         self.holds.observe(now)
         self._follow_situation(now, user)
@@ -238,13 +243,13 @@ class Runtime:
         household left as it was is learned."""
         where, at = situation(self.home, now), self.source.clock()
         began, last = self._situation
-        if last is not None and situation(self.home, last) != where:
-            if at - began >= QUIET_SITUATION:
-                self.guidance.quiet(last, user)
-            began = at
-        elif last is None:
-            began = at
-        self._situation = (began, now)
+        ended = last is not None and situation(self.home, last) != where
+        self._situation = (at if ended or last is None else began, now)
+        if ended and at - began >= QUIET_SITUATION:
+            try:
+                self.guidance.quiet(last, user)  # type: ignore[arg-type]
+            except (StoreError, ContextError) as e:  # the robot acts on, whatever the database does
+                log.warning("what the household left alone could not be learned: %s", e)
 
     def _why(self, now: Mapping[str, str], services: list[str], user: str) -> list[Any]:
         point = self.space.point(now)
@@ -257,22 +262,32 @@ class Runtime:
         commands, then held for the person) and its services learned as rejections where it
         acted. :class:`LookupError` for an action not in the journal, :class:`FixedContextError`
         for one already undone."""
-        action = self.journal.get(action_id)
-        if action is None:
-            raise LookupError(f"no action {action_id} among the robot's latest")
-        if action.undone or action.undone_here:
-            raise FixedContextError(f"action {action_id} is undone already")
-        action.undone_here = True
-        now = self.source.snapshot()
-        switched = []
-        for device, on in reversed(action.switches):
-            if now.get(device) == ("on" if on else "off"):
-                self.actor.switch(device, not on)
+        with self._acting:
+            action = self.journal.get(action_id)
+            if action is None:
+                raise LookupError(f"no action {action_id} among the robot's latest")
+            if action.undone_here or (
+                action.switches and set(action.undone) >= {d for d, _ in action.switches}
+            ):
+                raise FixedContextError(f"action {action_id} is undone already")
+            now = self.source.snapshot()
+            switched = []
+            for device in dict.fromkeys(d for d, _ in reversed(action.switches)):
+                back = action.context.get(device) == "on"  # as it was before the robot acted
+                if now.get(device) == ("on" if back else "off") or device in action.undone:
+                    continue
+                if self.actor.switch(device, back) is None and getattr(self.source, "skips_switches", False):
+                    continue  # Home Assistant away: not switched back
                 self.holds.hold(device, now, at=self.source.clock())
-                action.undone[device] = "hmi"
-                switched.append({"device": device, "state": "off" if on else "on"})
-        rejected = self.guidance.undo(action.id, user or action.user)
+                switched.append((device, back))
+            rejected = self.guidance.undo(action.id, user or action.user)  # StoreError: nothing marked
+            action.undone_here = True
+            back_now = self.source.snapshot()
+            for device, _ in action.switches:  # those back as they were (now, or by a try before)
+                if back_now.get(device) == action.context.get(device):
+                    action.undone.setdefault(device, "hmi")
         self.publish("context", self.context())
+        switched = [{"device": d, "state": "on" if on else "off"} for d, on in switched]
         return {"action": action.id, "switched": switched, "rejected": rejected, "user": user or action.user}
 
     def _changed(self, change: DeviceChange) -> None:

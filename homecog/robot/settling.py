@@ -31,6 +31,7 @@ from collections.abc import Mapping
 
 from homecog.errors import ContextError
 from homecog.home.model import Home
+from homecog.robot.attribution import EXPECT_SECONDS
 
 #: how far into another bin a reading must be to count as moved, as a share of the reading
 MARGIN = 0.02
@@ -42,38 +43,44 @@ class Settling:
     def __init__(self, home: Home, margin: float = MARGIN) -> None:
         self.home = home
         self.margin = margin
-        # device -> the state the robot switched it to, and the home's codes once it is so
-        self._after: dict[str, tuple[bool, tuple[int, ...] | None]] = {}
+        # device -> the state the robot switched it to, when, and the home's codes once it is so
+        self._after: dict[str, tuple[bool, float, tuple[int, ...] | None]] = {}
         self._lock = threading.Lock()
 
-    def switched(self, device: str, on: bool) -> None:
-        """The robot switched ``device`` to ``on``; the home as it leaves it is the first look
-        at the home that reports the device so."""
+    def switched(self, device: str, on: bool, *, at: float = 0.0) -> None:
+        """The robot switched ``device`` to ``on`` at ``at``; the home as it leaves it is the
+        first look at the home that reports the device so."""
         with self._lock:
-            self._after[device] = (on, None)
+            self._after[device] = (on, at, None)
 
-    def settled(self, device: str, now: Mapping[str, str]) -> bool:
+    def forget(self, device: str) -> None:
+        """A switch that failed: nothing to keep."""
+        with self._lock:
+            self._after.pop(device, None)
+
+    def settled(self, device: str, now: Mapping[str, str], *, at: float = 0.0) -> bool:
         """Whether ``device`` is still as the robot's switch left it, in a home that has not
-        moved since: the robot must not switch it back."""
+        moved since: the robot must not switch it back. A switch not reported within
+        :data:`~homecog.robot.attribution.EXPECT_SECONDS` is given up."""
         with self._lock:
             if device not in self._after:
                 return False
-            on, after = self._after[device]
+            on, since, after = self._after[device]
             if (now.get(device) == "on") != on:
-                if after is None:
+                if after is None and at - since <= EXPECT_SECONDS:
                     return True  # not reported yet
-                del self._after[device]  # switched since, by someone else
+                del self._after[device]  # switched since by someone else, or never reported
                 return False
             if after is None:  # the first look at the home with the switch done
-                self._after[device] = (on, self._codes(now))
+                self._after[device] = (on, since, self._codes(now))
                 return True
             if self._moved(after, now):
                 del self._after[device]
                 return False
             return True
 
-    def settled_devices(self, now: Mapping[str, str]) -> set[str]:
-        return {d for d in list(self._after) if self.settled(d, now)}
+    def settled_devices(self, now: Mapping[str, str], *, at: float = 0.0) -> set[str]:
+        return {d for d in list(self._after) if self.settled(d, now, at=at)}
 
     def _codes(self, context: Mapping[str, str]) -> tuple[int, ...]:
         return tuple(f.discretize(context[f.name]) for f in self.home.features)
