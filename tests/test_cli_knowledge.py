@@ -198,3 +198,73 @@ def test_build_bad_arguments(capsys, tmp_path):
             capsys, "build", "--home", STUDIO, "--db", f"sqlite:///{tmp_path / 'x.sqlite'}", *args
         )
         assert code == 2 and message in err and err.count("\n") == 1, err
+
+
+def test_correct_add_and_reject_keep_the_other_services(built, capsys, tmp_path):
+    _, q = built
+    db = f"sqlite:///{tmp_path / 'add.sqlite'}"
+    OFF = CTX.replace("radio=on", "radio=off")  # noqa: N806
+    assert main(["build", "--home", STUDIO, "--q", str(q), "--db", db, "--json"]) == 0
+    capsys.readouterr()
+
+    def cognize(user):
+        code, out, _ = run(
+            capsys, "cognize", "--home", STUDIO, "--db", db, "--context", OFF, "--user", user, "--json"
+        )
+        assert code == 0
+        return sorted(json.loads(out)["services"])
+
+    before = cognize("kim")
+    assert before == ["BringTea", "LampOn", "RaiseBlind"]
+    code, out, _ = run(
+        capsys,
+        "correct",
+        "--home",
+        STUDIO,
+        "--db",
+        db,
+        "--context",
+        OFF,
+        "--add",
+        "RadioOn",
+        "--user",
+        "kim",
+        "--json",
+    )
+    assert code == 0 and json.loads(out)["added"] == ["RadioOn"] and json.loads(out)["rejected"] == []
+    assert cognize("kim") == ["BringTea", "LampOn", "RadioOn", "RaiseBlind"]  # nothing else rejected
+    code, out, _ = run(
+        capsys,
+        "correct",
+        "--home",
+        STUDIO,
+        "--db",
+        db,
+        "--context",
+        OFF,
+        "--reject",
+        "BringTea",
+        "--user",
+        "kim",
+        "--json",
+    )
+    assert code == 0 and json.loads(out)["rejected"] == ["BringTea"] and json.loads(out)["added"] == []
+    assert cognize("kim") == ["LampOn", "RadioOn", "RaiseBlind"]
+    assert cognize("ann") == before  # for that user only
+    store = Store(db, load_home(STUDIO))
+    from homecog.knowledge.history import correction_history
+
+    kinds = [(c.kind, c.want, c.concerns) for c in correction_history(store).corrections]
+    store.close()
+    assert kinds == [("explicit", ["RadioOn"], ["RadioOn"]), ("explicit", [], ["BringTea"])]
+    for args, message in [
+        (
+            ["--want", "LampOn", "--add", "RadioOn"],
+            "give --context and --want (the whole set) or --add/--reject, or --events FILE",
+        ),
+        (["--add", "RadioOn", "--reject", "RadioOn"], "--add and --reject both name RadioOn"),
+        (["--add", ""], "--add and --reject name no service"),
+        (["--add", "Dance"], "unknown service 'Dance'"),
+    ]:
+        code, _, err = run(capsys, "correct", "--home", STUDIO, "--db", db, "--context", OFF, *args)
+        assert code == 2 and err.strip().splitlines()[0].startswith(f"homecog: error: {message}"), err

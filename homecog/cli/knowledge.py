@@ -79,6 +79,16 @@ def correct(
         str | None,
         typer.Option("--want", help="The services the user wants, comma-separated (empty: none)."),
     ] = None,
+    add: Annotated[
+        str | None,
+        typer.Option(
+            "--add", help="Instead: services the user wants too, comma-separated; the rest keep theirs."
+        ),
+    ] = None,
+    reject: Annotated[
+        str | None,
+        typer.Option("--reject", help="Instead: services the user does not want, comma-separated."),
+    ] = None,
     events: Annotated[
         Path | None,
         typer.Option(
@@ -96,19 +106,35 @@ def correct(
     """Tell the robot which services the user wants in a context, or learn an event file; it
     learns at once."""
     from homecog.home.codec import Space, parse_context, parse_services
+    from homecog.knowledge.kinds import Kind
 
+    partial = add is not None or reject is not None
     if events is not None:
-        if context is not None or want is not None:
-            raise UsageProblemError("--events learns a file: give it without --context and --want")
+        if context is not None or want is not None or partial:
+            raise UsageProblemError(
+                "--events learns a file: give it without --context, --want, --add, --reject"
+            )
         _correct_events(events, home=home, user=user, db=db, batch=batch, json=json)
         return
-    if context is None or want is None:
-        raise UsageProblemError("give --context and --want, or --events FILE")
+    if context is None or (want is None) == (not partial):
+        raise UsageProblemError(
+            "give --context and --want (the whole set) or --add/--reject, or --events FILE"
+        )
     h = load_home(home)
     point = parse_context(context, Space(h))
-    wanted = parse_services(want, h)
+    how = None
+    if partial:
+        adds, rejects = parse_services(add or "", h), parse_services(reject or "", h)
+        both = sorted(set(adds) & set(rejects))
+        if both:
+            raise UsageProblemError(f"--add and --reject both name {both[0]}")
+        if not adds and not rejects:
+            raise UsageProblemError("--add and --reject name no service")
+        wanted, how = adds, Kind(concerns=adds + rejects)
+    else:
+        wanted = parse_services(want, h)  # type: ignore[arg-type]
     with _knowledge(h, db) as (store, tree):
-        added, rejected = store.correct(tree, point, wanted, user)
+        added, rejected = store.correct(tree, point, wanted, user, how)
         experiences = store.experience_count()
     if json:
         emit_json({"added": added, "rejected": rejected, "experiences": experiences, "user": user})
