@@ -136,9 +136,12 @@ def test_a_refused_file_teaches_nothing(db, tmp_path, capsys, header, rows, mess
     [
         (
             ["--events", "e.csv", "--want", "LampOn"],
-            "--events learns a file: give it without --context and --want",
+            "--events learns a file: give it without --context, --want, --add, --reject",
         ),
-        (["--want", "LampOn"], "give --context and --want, or --events FILE"),
+        (
+            ["--want", "LampOn"],
+            "give --context and --want (the whole set) or --add/--reject, or --events FILE",
+        ),
         (["--events", "missing.csv"], "--events missing.csv: no such file"),
     ],
 )
