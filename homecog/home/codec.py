@@ -30,6 +30,7 @@ from typing import Any
 from homecog.errors import ContextError
 from homecog.home.clock import format_clock, parse_clock
 from homecog.home.model import Feature, Home, format_number
+from homecog.home.recent import Recent
 from homecog.home.states import STATE_WORDS, parse_state
 
 
@@ -48,10 +49,12 @@ class Dimension:
 
 @dataclass(frozen=True)
 class Point:
-    """A context in the input space: codes per dimension, raw readings of numeric ones."""
+    """A context in the input space: codes per dimension, raw readings of numeric ones, and
+    the recent past where a stream says it (:mod:`homecog.home.recent`; None: a snapshot)."""
 
     codes: tuple[int, ...]
     readings: tuple[float | None, ...]
+    recent: Recent | None = None
 
 
 class Space:

@@ -23,6 +23,7 @@ from __future__ import annotations
 import csv
 from collections.abc import Sequence
 from dataclasses import dataclass
+from datetime import datetime
 from pathlib import Path
 
 from homecog.errors import ContextError, EvaluationError
@@ -45,6 +46,7 @@ class Scenario:
     truth: frozenset[str]
     choices: tuple[tuple[frozenset[str], ...], ...] = ()
     user: str | None = None  # an event file's ``user`` column, where it may have one
+    timestamp: datetime | None = None  # an event file's ``timestamp``
 
     def truth_for(self, predicted: Sequence[str]) -> frozenset[str]:
         """The optimal set that agrees best with a prediction: most services in common, then
@@ -113,8 +115,7 @@ def load_scenarios(
                         parse_state(value, name)
                 except ContextError as e:
                     raise EvaluationError(f"{path}: line {line}, column {name}: {e}") from None
-            if events or corrections:
-                _check_timestamp(path, line, row["timestamp"])
+            timestamp = _check_timestamp(path, line, row["timestamp"]) if events or corrections else None
             user = (row.get("user") or "").strip() or None
             if user is not None and len(user) > 200:
                 raise EvaluationError(f"{path}: line {line}, column user: longer than 200 characters")
@@ -128,17 +129,24 @@ def load_scenarios(
                 truth_set, ambiguous = frozenset(wanted), ()
             else:
                 truth_set, ambiguous = truth_of(truth, point)
-            out.append(Scenario(context=context, point=point, truth=truth_set, choices=ambiguous, user=user))
+            out.append(
+                Scenario(
+                    context=context,
+                    point=point,
+                    truth=truth_set,
+                    choices=ambiguous,
+                    user=user,
+                    timestamp=timestamp,
+                )
+            )
     if not out:
         raise EvaluationError(f"{path}: no rows after the header")
     return out
 
 
-def _check_timestamp(path: Path, line: int, value: str) -> None:
-    from datetime import datetime
-
+def _check_timestamp(path: Path, line: int, value: str) -> datetime:
     try:
-        datetime.fromisoformat(value.strip())
+        return datetime.fromisoformat(value.strip())
     except ValueError:
         raise EvaluationError(
             f"{path}: line {line}, column timestamp: {value!r} is not an ISO 8601 time"

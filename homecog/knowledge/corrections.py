@@ -39,6 +39,7 @@ from typing import Any
 from homecog.home.clock import format_clock
 from homecog.home.codec import Point, Space
 from homecog.home.model import Home, format_number
+from homecog.home.recent import Recent, recent_names
 from homecog.knowledge.evidence import Decision, ServiceLearner
 from homecog.knowledge.threshold import OnlineThreshold
 
@@ -63,6 +64,7 @@ class Example:
     want: frozenset[int]
     concerns: frozenset[int] | None = None
     weight: int = 1
+    recent: Recent | None = None  # the recent past, where the correction came in a stream
 
     def speaks_of(self, a: int) -> bool:
         """Whether the example says anything about service ``a``."""
@@ -96,6 +98,9 @@ class UserLayers:
         self._version = version
         self._relevant = relevant
         self._n_features = space.n_features
+        self.recent_names = recent_names(home)
+        self._n_recent = len(self.recent_names) + 1  # and: was the service wanted just before
+        self._names = home.service_names
         # per numeric feature, its bins' edges: a threshold learned from readings joins them
         self._numeric = {
             j: tuple(sorted({x for b in f.bins for x in b if not math.isinf(x)}))
@@ -152,7 +157,7 @@ class UserLayers:
     ) -> None:
         """A user's correction: the services ``want`` wanted at ``p`` (of ``concerns``, or of
         every service), counted ``weight`` times; counted at once."""
-        example = Example(p.codes, p.readings, frozenset(want), concerns, weight)
+        example = Example(p.codes, p.readings, frozenset(want), concerns, weight, p.recent)
         examples = self._examples.setdefault(user, [])
         examples.append(example)
         if self._made_at.get(user) == self._version():
@@ -164,11 +169,11 @@ class UserLayers:
         threshold = self._threshold.get(user)
         if threshold is None:  # the user's: of THRESHOLDS, the best F1 on their corrections so far
             threshold = self._threshold[user] = OnlineThreshold(THRESHOLDS, calibrate=CALIBRATE)
-        codes, readings = example.codes, example.readings
+        codes, readings, recent = example.codes, example.readings, example.recent
         # the answers just given at this point (a correction follows its cognition) are the
         # answers before this example; else they are asked again
         last = self._last
-        if last is not None and last[0] == (user, codes, readings, ident - 1, self._version()):
+        if last is not None and last[0] == (user, codes, readings, recent, ident - 1, self._version()):
             shared, answers = last[1], last[2]
         else:
             shared, answers = self._shared(Point(codes, readings)), {}
@@ -178,11 +183,16 @@ class UserLayers:
             learner = learners.get(a)
             if learner is None:
                 learner = learners[a] = ServiceLearner(
-                    self._n_features + 1, self._numeric, self.order, self._relevant(a)
+                    self._n_features + self._n_recent + 1,
+                    self._numeric,
+                    self.order,
+                    self._relevant(a),
+                    n_recent=self._n_recent,
                 )
             wanted = a in example.want
+            atoms = self.recent_atoms(a, recent)
             if example.concerns is None:  # a whole set: a fair sample of the user's answers
-                before = answers.get(a) or learner.decide(readings, codes, shared=a in shared)
+                before = answers.get(a) or learner.decide(readings, codes, shared=a in shared, recent=atoms)
                 if before.wanted + before.unwanted:
                     threshold.judge(before.share, wanted)
             learner.add(
@@ -193,8 +203,17 @@ class UserLayers:
                 ident=ident,
                 weight=example.weight,
                 partial=example.concerns is not None,
+                recent=atoms,
             )
         self._last = None
+
+    def recent_atoms(self, a: int, recent: Recent | None) -> tuple[str, ...]:
+        """Service ``a``'s atoms of the recent past: its features' values, then whether ``a``
+        was wanted at the previous moment (``()``: unknown, as without a stream)."""
+        if recent is None:
+            return ()
+        previous = "unknown" if recent.previous is None else str(self._names[a] in recent.previous)
+        return (*(v for _, v in recent.values), previous)
 
     def learners(self, user: str) -> dict[int, ServiceLearner]:
         """A user's learners per service, made again if the shared tree changed since."""
@@ -218,7 +237,13 @@ class UserLayers:
         learner = self.learners(user).get(a)
         if learner is None or not self.changes(a, p.codes):
             return None
-        return learner.decide(p.readings, p.codes, shared=shared, threshold=self._value(user))
+        return learner.decide(
+            p.readings,
+            p.codes,
+            shared=shared,
+            threshold=self._value(user),
+            recent=self.recent_atoms(a, p.recent),
+        )
 
     def decisions(self, user: str, p: Point, shared: frozenset[int]) -> Iterator[tuple[int, Decision]]:
         """Every service the user's evidence decides at ``p`` (propose or reject)."""
@@ -227,8 +252,14 @@ class UserLayers:
         answers = {}
         for a, learner in learners.items():
             if self.changes(a, p.codes):
-                answers[a] = learner.decide(p.readings, p.codes, shared=a in shared, threshold=threshold)
-        key = (user, p.codes, p.readings, len(self._examples[user]), self._version())
+                answers[a] = learner.decide(
+                    p.readings,
+                    p.codes,
+                    shared=a in shared,
+                    threshold=threshold,
+                    recent=self.recent_atoms(a, p.recent),
+                )
+        key = (user, p.codes, p.readings, p.recent, len(self._examples[user]), self._version())
         self._last = (key, shared, answers)
         for a, d in answers.items():
             if d.sign:
@@ -242,10 +273,14 @@ class UserLayers:
         learner = self.learners(user)[a]
         conditions: dict[str, str] = {}
         for pos, j in enumerate(decision.key):
-            if j == self._n_features:
+            if j == self._n_features + self._n_recent:
                 conditions["shared knowledge"] = (
                     "proposes it" if decision.cell[pos] else "does not propose it"
                 )
+                continue
+            if j >= self._n_features:
+                names = [*self.recent_names, "wanted just before"]
+                conditions[names[j - self._n_features]] = str(decision.cell[pos])
                 continue
             feature = self.home.features[j]
             atom = decision.cell[pos]

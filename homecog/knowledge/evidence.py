@@ -41,12 +41,13 @@ recounted.
 from __future__ import annotations
 
 import bisect
-import functools
 import math
 import operator
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 from itertools import combinations
+
+from homecog.knowledge.cuts import best_cut, loo_loss
 
 Atom = object
 #: how many examples' worth a cell's share is drawn toward the share of its key less one atom
@@ -54,21 +55,25 @@ SMOOTHING = 3.0
 #: the fewest examples a cell of a key with fewer atoms must hold to answer for an empty one
 BACKOFF = 5
 Key = tuple[int, ...]
+Recent = tuple[Atom, ...]  # the recent past's atoms of an example, in order
 
 
-@functools.lru_cache(maxsize=1 << 16)
-@functools.lru_cache(maxsize=65536)
-def _loo(p: int, n: int) -> float:
-    """Leave-one-out log loss (nats) of a cell's estimate over its p wanted and n unwanted
-    examples: each example left out is predicted by the others, with half an example of each
-    label added (a cell of one example then says one half: log 2)."""
-    m = p + n
-    out = 0.0
-    if p:
-        out -= p * math.log((p - 0.5) / m)
-    if n:
-        out -= n * math.log((n - 0.5) / m)
-    return out
+def _keys(n_atoms: int, order: int, n_recent: int) -> list[Key]:
+    """The keys a learner weighs. Of the context's atoms and the shared answer (the last atom):
+    every key of up to two, and of three or more only with the shared answer among them (the
+    shared knowledge refined by two features). Each atom of the recent past: alone, beside one
+    context atom, and beside the shared answer — a sequence refines a snapshot, it does not
+    replace it.
+
+    >>> _keys(3, 2, 1)  # one context atom (0), one recent (1), the shared answer (2)
+    [(), (0,), (2,), (0, 2), (1,), (0, 1), (1, 2)]
+    """
+    shared = n_atoms - 1
+    context = [*range(n_atoms - 1 - n_recent), shared]
+    keys = [k for r in range(order + 1) for k in combinations(context, r) if r <= 2 or shared in k]
+    for j in range(n_atoms - 1 - n_recent, shared):
+        keys += [(j,), *((c, j) for c in context[:-1]), (j, shared)]
+    return keys
 
 
 def _cell_of(key: Key) -> Callable[[tuple[Atom, ...]], tuple[Atom, ...]]:
@@ -87,52 +92,6 @@ def _sign(share: float, threshold: float, last: int) -> int:
     if abs(share - threshold) <= 1e-9:
         return 1 if last else -1
     return 1 if share > threshold else -1
-
-
-def round_cut(low: float, high: float) -> float:
-    """A threshold between two readings as a person says it: of the roundest numbers in
-    (low, high] — multiples of 10, 5, 1, 0.5, 0.1, … — the nearest to the midpoint.
-
-    >>> round_cut(22.8, 24.1), round_cut(15.3, 15.8), round_cut(0.1234, 0.1236), round_cut(-3.2, 40)
-    (23.0, 15.5, 0.1235, 0.0)
-    >>> round_cut(1e300, 1.6e308)  # huge readings: a cut still, never an error
-    8.00000005e+307
-    """
-    mid = low / 2 + high / 2  # no overflow near the largest floats
-    for digits in range(-1, 7):
-        for step in (5.0, 1.0):
-            size = step * 10.0**-digits
-            try:
-                nearest = round(mid / size) * size
-            except (OverflowError, ValueError):  # beyond what a float holds at this step
-                continue
-            for cand in (nearest, nearest - size, nearest + size):
-                if low < cand <= high:
-                    return round(cand, max(digits + 1, 0))
-    return high
-
-
-def best_cut(readings: Sequence[float], labels: Sequence[bool]) -> float | None:
-    """The threshold that best splits the readings by label (least Gini impurity), or None."""
-    pairs = sorted(zip(readings, labels, strict=True))
-    n = len(pairs)
-    total_pos = sum(1 for _, y in pairs if y)
-    if n < 4 or total_pos in (0, n):
-        return None
-    best, best_i = math.inf, -1
-    pos = 0
-    for i in range(n - 1):
-        pos += pairs[i][1]
-        if pairs[i][0] == pairs[i + 1][0]:
-            continue
-        left, right = i + 1, n - i - 1
-        rpos = total_pos - pos
-        gini = pos * (left - pos) / left + rpos * (right - rpos) / right
-        if gini < best - 1e-12:
-            best, best_i = gini, i
-    if best_i < 0:
-        return None
-    return round_cut(pairs[best_i][0], pairs[best_i + 1][0])
 
 
 @dataclass
@@ -172,19 +131,18 @@ class ServiceLearner:
         numeric: dict[int, tuple[float, ...]],
         order: int = 2,
         prior: frozenset[int] = frozenset(),
+        n_recent: int = 0,
     ) -> None:
         self.n_atoms = n_atoms
         self.numeric = numeric
         self.order = order
         self.prior = prior
-        # keys of up to two atoms; of three or more only with the shared answer among them (the
-        # shared knowledge refined by two features)
-        self.keys: list[Key] = [
-            k for r in range(order + 1) for k in combinations(range(n_atoms), r) if r <= 2 or n_atoms - 1 in k
-        ]
+        self.n_recent = n_recent
+        self._unknown = ("unknown",) * n_recent
+        self.keys = _keys(n_atoms, order, n_recent)
         self.cuts: dict[int, tuple[float, ...]] = dict(numeric)
-        # per example: readings, codes, wanted, the shared answer, the caller's id for it
-        self._examples: list[tuple[Sequence[float | None], Sequence[int], bool, bool, int]] = []
+        # per example: readings, codes, wanted, the shared answer, the caller's id, recent atoms
+        self._examples: list[tuple[Sequence[float | None], Sequence[int], bool, bool, int, Recent]] = []
         self._atoms: list[tuple[Atom, ...]] = []
         self._weights: list[int] = []  # per example, how many it counts as
         self._partials: list[bool] = []  # per example, whether it is partial (see add)
@@ -210,10 +168,13 @@ class ServiceLearner:
     def n_examples(self) -> int:
         return len(self._examples)
 
-    def atoms(self, readings: Sequence[float | None], codes: Sequence[int], shared: bool) -> tuple[Atom, ...]:
-        """An example's atoms: codes, numeric readings as intervals between cuts, the prior."""
+    def atoms(
+        self, readings: Sequence[float | None], codes: Sequence[int], shared: bool, recent: Recent = ()
+    ) -> tuple[Atom, ...]:
+        """An example's atoms: codes, numeric readings as intervals between cuts, the recent
+        past's atoms (``unknown`` where not given), the prior."""
         out: list[Atom] = []
-        for j in range(self.n_atoms - 1):
+        for j in range(self.n_atoms - 1 - self.n_recent):
             cuts = self.cuts.get(j)
             if cuts is None:
                 out.append(codes[j])
@@ -224,6 +185,7 @@ class ServiceLearner:
                 else:  # the interval, by its lower end: a new cut moves only what it splits off
                     i = bisect.bisect_right(cuts, r)
                     out.append(cuts[i - 1] if i else -math.inf)
+        out.extend(recent or self._unknown)
         out.append(int(shared))
         return tuple(out)
 
@@ -237,6 +199,7 @@ class ServiceLearner:
         ident: int = 0,
         weight: int = 1,
         partial: bool = False,
+        recent: Recent = (),
     ) -> None:
         """Count one example: the service ``wanted`` or not in a context (``ident``: the
         caller's name for it, given back by :meth:`members`), as ``weight`` examples.
@@ -246,11 +209,11 @@ class ServiceLearner:
         refines what the shared knowledge says where it says it, and a service with such
         examples answers by those keys only — so a few switches, all of them "wanted", do not
         spread over every context."""
-        self._examples.append((readings, codes, wanted, shared, ident))
+        self._examples.append((readings, codes, wanted, shared, ident, recent))
         self._weights.append(weight)
         self._partials.append(partial)
         self._partial |= partial
-        atoms = self.atoms(readings, codes, shared)
+        atoms = self.atoms(readings, codes, shared, recent)
         self._atoms.append(atoms)
         self._count(atoms, wanted, self._shared_keys if partial else range(len(self.keys)), weight)
         self._best = self._backoff = None
@@ -271,13 +234,13 @@ class ServiceLearner:
                 counts = table[cell] = [0, 0, 0]
                 before = 0.0
             else:
-                before = _loo(counts[0], counts[1])
+                before = loo_loss(counts[0], counts[1])
             counts[0 if wanted else 1] += step
             if step > 0:
                 counts[2] = wanted
             elif not counts[0] and not counts[1]:
                 del table[cell]
-            loo[i] += _loo(counts[0], counts[1]) - before
+            loo[i] += loo_loss(counts[0], counts[1]) - before
 
     def _recut(self) -> None:
         """Choose the thresholds again; the examples whose interval moved change cells."""
@@ -293,8 +256,8 @@ class ServiceLearner:
             return
         keys = [i for i, k in enumerate(self.keys) if any(j in k for j in moved)]
         shared_keys = [i for i in keys if i in set(self._shared_keys)]
-        for e, (readings, codes, wanted, shared, _) in enumerate(self._examples):
-            atoms = self.atoms(readings, codes, shared)
+        for e, (readings, codes, wanted, shared, _, recent) in enumerate(self._examples):
+            atoms = self.atoms(readings, codes, shared, recent)
             if atoms != self._atoms[e]:
                 these = shared_keys if self._partials[e] else keys
                 self._count(self._atoms[e], wanted, these, -self._weights[e])
@@ -316,7 +279,13 @@ class ServiceLearner:
         return (self._rounded[i], self._prior_rank[i])
 
     def decide(
-        self, readings: Sequence[float | None], codes: Sequence[int], *, shared: bool, threshold: float = 0.5
+        self,
+        readings: Sequence[float | None],
+        codes: Sequence[int],
+        *,
+        shared: bool,
+        threshold: float = 0.5,
+        recent: Recent = (),
     ) -> Decision:
         """The answer at a context: the share of wanted examples in its cell under the best key,
         drawn toward the share under the key with one atom less (SMOOTHING examples' worth), and
@@ -324,7 +293,7 @@ class ServiceLearner:
         the latest example of the cell decides. Where the cell under the best key holds no
         example, the next key of the chain whose cell holds at least BACKOFF examples answers;
         where none does, the evidence says nothing (0) and the shared tree answers."""
-        atoms = self.atoms(readings, codes, shared)
+        atoms = self.atoms(readings, codes, shared, recent)
         chain = self.backoff()
         for depth, key in enumerate(chain):
             cell = tuple(atoms[k] for k in key)

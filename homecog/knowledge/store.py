@@ -365,6 +365,7 @@ class Store(StoreLog):
                     "context": tree.space.context(point),
                     "codes": list(point.codes),
                     "readings": list(point.readings),
+                    **({"recent": point.recent.as_dict()} if point.recent is not None else {}),
                     "want": want,
                     "added": added,
                     "rejected": rejected,

@@ -17,6 +17,7 @@ from sqlalchemy.engine import Connection, Engine
 
 from homecog.errors import StoreError
 from homecog.home.codec import Point
+from homecog.home.recent import Recent
 from homecog.knowledge import sample_log
 from homecog.knowledge.database import redact
 from homecog.knowledge.ihdr import IHDRTree
@@ -169,7 +170,12 @@ def stored_homes(conn: Connection) -> Iterator[tuple[str, str, bool]]:
 
 def replay(tree: IHDRTree, kind: str, user: str | None, payload: dict[str, Any]) -> None:
     """Apply a logged single sample or correction to ``tree`` again (rebuilds, a new build)."""
-    point = Point(codes=tuple(payload["codes"]), readings=tuple(payload["readings"]))
+    recent = payload.get("recent")
+    point = Point(
+        codes=tuple(payload["codes"]),
+        readings=tuple(payload["readings"]),
+        recent=None if recent is None else Recent.from_dict(recent),
+    )
     if kind == "correction":
         tree.correct_one(
             point,

@@ -1,0 +1,68 @@
+"""The arithmetic of a user's evidence: a cell's leave-one-out loss, and the thresholds a
+person would say between readings (:mod:`homecog.knowledge.evidence` uses them)."""
+
+from __future__ import annotations
+
+import functools
+import math
+from collections.abc import Sequence
+
+
+@functools.lru_cache(maxsize=1 << 16)
+def loo_loss(p: int, n: int) -> float:
+    """Leave-one-out log loss (nats) of a cell's estimate over its p wanted and n unwanted
+    examples: each example left out is predicted by the others, with half an example of each
+    label added (a cell of one example then says one half: log 2)."""
+    m = p + n
+    out = 0.0
+    if p:
+        out -= p * math.log((p - 0.5) / m)
+    if n:
+        out -= n * math.log((n - 0.5) / m)
+    return out
+
+
+def round_cut(low: float, high: float) -> float:
+    """A threshold between two readings as a person says it: of the roundest numbers in
+    (low, high] — multiples of 10, 5, 1, 0.5, 0.1, … — the nearest to the midpoint.
+
+    >>> round_cut(22.8, 24.1), round_cut(15.3, 15.8), round_cut(0.1234, 0.1236), round_cut(-3.2, 40)
+    (23.0, 15.5, 0.1235, 0.0)
+    >>> round_cut(1e300, 1.6e308)  # huge readings: a cut still, never an error
+    8.00000005e+307
+    """
+    mid = low / 2 + high / 2  # no overflow near the largest floats
+    for digits in range(-1, 7):
+        for step in (5.0, 1.0):
+            size = step * 10.0**-digits
+            try:
+                nearest = round(mid / size) * size
+            except (OverflowError, ValueError):  # beyond what a float holds at this step
+                continue
+            for cand in (nearest, nearest - size, nearest + size):
+                if low < cand <= high:
+                    return round(cand, max(digits + 1, 0))
+    return high
+
+
+def best_cut(readings: Sequence[float], labels: Sequence[bool]) -> float | None:
+    """The threshold that best splits the readings by label (least Gini impurity), or None."""
+    pairs = sorted(zip(readings, labels, strict=True))
+    n = len(pairs)
+    total_pos = sum(1 for _, y in pairs if y)
+    if n < 4 or total_pos in (0, n):
+        return None
+    best, best_i = math.inf, -1
+    pos = 0
+    for i in range(n - 1):
+        pos += pairs[i][1]
+        if pairs[i][0] == pairs[i + 1][0]:
+            continue
+        left, right = i + 1, n - i - 1
+        rpos = total_pos - pos
+        gini = pos * (left - pos) / left + rpos * (right - rpos) / right
+        if gini < best - 1e-12:
+            best, best_i = gini, i
+    if best_i < 0:
+        return None
+    return round_cut(pairs[best_i][0], pairs[best_i + 1][0])
