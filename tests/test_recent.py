@@ -109,3 +109,19 @@ def test_a_wish_that_follows_the_previous_moment_is_learned_from_the_recent_past
     assert why.conditions["wanted just before"] == "False"
     # the first moment had no moment before it: its "wanted just before" is unknown
     assert why.evidence["agreed"] == 23 and why.evidence["disagreed"] == 0
+
+
+def test_how_long_ago_a_device_switched_by_the_services_or_by_its_state():
+    home = load_home("paper")
+    past = RecentPast(home)
+    x = {**READ, "lamp": "off", "tv_living": "off"}
+    past.learn(T0, x, ["TurnOnLamp"])  # the lamp is switched on at this moment
+    r = past.at(T0 + timedelta(minutes=3), {**x, "lamp": "on"})
+    assert r.since_switched("lamp") == "<5"
+    assert r.since_switched("tv_living") == ">4h"  # never seen switching
+    past.learn(T0 + timedelta(minutes=3), {**x, "lamp": "on", "tv_living": "on"}, [])  # by hand
+    r = past.at(T0 + timedelta(minutes=20), {**x, "lamp": "on", "tv_living": "on"})
+    assert r.switched == (("lamp", "15-60"), ("tv_living", "15-60"))
+    past.learn(T0 + timedelta(hours=5), {**x, "lamp": "on", "tv_living": "on"}, [])
+    assert past.at(T0 + timedelta(hours=5), x).switched == ()  # forgotten after four hours
+    assert Recent(at=None, values=()).since_switched("lamp") == "unknown"

@@ -10,7 +10,11 @@ sees — and derives, at each new moment, features of what came just before it:
   the value it had before its current one, and ``minutes in X``, how long it has had the current
   one, binned;
 - the services wanted at the previous moment (:attr:`Recent.previous`), which the correction
-  learner reads per service: was *this* service wanted just before?
+  learner reads per service: was *this* service wanted just before, and which were?
+- the devices switched within the last four hours and how long ago (:attr:`Recent.switched`;
+  a switch is seen where a moment's services set a device, or where its state differs from
+  the moment before): per service, how long ago the device it sets switched — an appliance
+  switched on a minute ago is switched off at another moment than one on for hours.
 
 Each is ``unknown`` where the stream cannot say (its first moment, a stream without times). The
 features are derived from the stream alone, so any event file gains them without new columns,
@@ -64,6 +68,16 @@ class Recent:
     at: datetime | None
     values: tuple[tuple[str, str], ...]
     previous: frozenset[str] | None = None
+    # the devices switched within the last four hours, and how long ago (binned)
+    switched: tuple[tuple[str, str], ...] = ()
+
+    def since_switched(self, device: str) -> str:
+        """How long ago a device took its current state: a span, ``>4h`` (not within four
+        hours, or never seen switching) or ``unknown`` (a stream without times)."""
+        for name, ago in self.switched:
+            if name == device:
+                return ago
+        return UNKNOWN if self.at is None else SPAN_NAMES[-1]
 
     def value(self, name: str) -> str:
         for key, value in self.values:
@@ -77,6 +91,7 @@ class Recent:
             "at": None if self.at is None else self.at.isoformat(),
             **dict(self.values),
             "previous services": None if self.previous is None else sorted(self.previous),
+            **({"switched": dict(self.switched)} if self.switched else {}),
         }
 
     @classmethod
@@ -84,11 +99,15 @@ class Recent:
         """What :meth:`as_dict` wrote, back."""
         at = data.get("at")
         previous = data.get("previous services")
-        values = tuple((str(k), str(v)) for k, v in data.items() if k not in ("at", "previous services"))
+        values = tuple(
+            (str(k), str(v)) for k, v in data.items() if k not in ("at", "previous services", "switched")
+        )
+        switched = data.get("switched") or {}
         return cls(
             at=datetime.fromisoformat(str(at)) if at else None,
             values=values,
             previous=None if previous is None else frozenset(str(s) for s in previous),  # type: ignore[union-attr]
+            switched=tuple((str(k), str(v)) for k, v in switched.items()),  # type: ignore[union-attr]
         )
 
 
@@ -113,6 +132,10 @@ class RecentPast:
         self._previous: frozenset[str] | None = None
         # per tracked feature: its current value, since when, and the value before it
         self._current: dict[str, tuple[str, datetime | None, str]] = {}
+        self.devices = [d.name for d in home.devices]
+        self._sets = {sv.name: [(d, "on" if on else "off") for d, on in sv.sets] for sv in home.services}
+        self._states: dict[str, str] = {}  # per device: its state at the latest moment
+        self._switched: dict[str, datetime] = {}  # per device: when it was last seen to switch
 
     def at(self, when: datetime | None, context: Mapping[str, object]) -> Recent:
         """The recent past at a new moment (its time, if known, and its context)."""
@@ -126,7 +149,17 @@ class RecentPast:
             befores.append((f"previous {name}", before))
             durations.append((f"minutes in {name}", minutes))
         values = (("weekday", weekday), ("minutes since previous", since), *befores, *durations)
-        return Recent(at=when, values=values, previous=self._previous)
+        return Recent(at=when, values=values, previous=self._previous, switched=self._recent_switches(when))
+
+    def _recent_switches(self, when: datetime | None) -> tuple[tuple[str, str], ...]:
+        if when is None:
+            return ()
+        out = []
+        for device, at in self._switched.items():
+            minutes = (when - at).total_seconds() / 60
+            if 0 <= minutes < SPANS[-1]:
+                out.append((device, span(minutes)))
+        return tuple(sorted(out))
 
     def _feature(self, name: str, now: str, when: datetime | None) -> tuple[str, str]:
         """A tracked feature's previous value and how long it has had the current one."""
@@ -141,12 +174,30 @@ class RecentPast:
 
     def learn(self, when: datetime | None, context: Mapping[str, object], wanted: Iterable[str]) -> None:
         """The moment lived: its context and the services wanted there become the past."""
+        wanted = frozenset(wanted)
         for name in self.tracked:
             now = str(context.get(name, UNKNOWN))
             if name not in self._current:
                 self._current[name] = (now, when, UNKNOWN)
             elif now != self._current[name][0]:
                 self._current[name] = (now, when, self._current[name][0])
+        for device in self.devices:
+            state = context.get(device)
+            if state is None:
+                continue
+            state = str(state)
+            if device in self._states and self._states[device] != state and when is not None:
+                self._switched[device] = when
+            self._states[device] = state
+        for service in wanted if when is not None else ():  # what the moment's services switched
+            for device, state in self._sets.get(service, ()):
+                if self._states.get(device) != state:
+                    self._switched[device] = when  # type: ignore[assignment]
+                    self._states[device] = state
         if when is not None:
             self._last_at = when
-        self._previous = frozenset(wanted)
+            for device in [
+                d for d, at in self._switched.items() if (when - at).total_seconds() >= SPANS[-1] * 60
+            ]:
+                del self._switched[device]
+        self._previous = wanted

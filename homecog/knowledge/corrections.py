@@ -99,7 +99,9 @@ class UserLayers:
         self._relevant = relevant
         self._n_features = space.n_features
         self.recent_names = recent_names(home)
-        self._n_recent = len(self.recent_names) + 1  # and: was the service wanted just before
+        # and: was the service wanted just before, which services were, when its device switched
+        self._n_recent = len(self.recent_names) + 3
+        self._device_of = [s.sets[0][0] if s.sets else None for s in home.services]
         self._names = home.service_names
         # per numeric feature, its bins' edges: a threshold learned from readings joins them
         self._numeric = {
@@ -208,12 +210,17 @@ class UserLayers:
         self._last = None
 
     def recent_atoms(self, a: int, recent: Recent | None) -> tuple[str, ...]:
-        """Service ``a``'s atoms of the recent past: its features' values, then whether ``a``
-        was wanted at the previous moment (``()``: unknown, as without a stream)."""
+        """Service ``a``'s atoms of the recent past: its features' values, whether ``a`` was
+        wanted at the previous moment, which services were, and how long ago the device it sets
+        switched (``()``: unknown, as without a stream)."""
         if recent is None:
             return ()
-        previous = "unknown" if recent.previous is None else str(self._names[a] in recent.previous)
-        return (*(v for _, v in recent.values), previous)
+        device = self._device_of[a]
+        switched = "unknown" if device is None else recent.since_switched(device)
+        if recent.previous is None:
+            return (*(v for _, v in recent.values), "unknown", "unknown", switched)
+        before = ";".join(sorted(recent.previous)) or "none"
+        return (*(v for _, v in recent.values), str(self._names[a] in recent.previous), before, switched)
 
     def learners(self, user: str) -> dict[int, ServiceLearner]:
         """A user's learners per service, made again if the shared tree changed since."""
@@ -279,7 +286,12 @@ class UserLayers:
                 )
                 continue
             if j >= self._n_features:
-                names = [*self.recent_names, "wanted just before"]
+                names = [
+                    *self.recent_names,
+                    "wanted just before",
+                    "services just before",
+                    "since its device switched",
+                ]
                 conditions[names[j - self._n_features]] = str(decision.cell[pos])
                 continue
             feature = self.home.features[j]

@@ -58,20 +58,20 @@ Key = tuple[int, ...]
 Recent = tuple[Atom, ...]  # the recent past's atoms of an example, in order
 
 
-def _keys(n_atoms: int, order: int, n_recent: int) -> list[Key]:
+def _keys(n_atoms: int, order: int, *, recent: bool, n_recent: int) -> list[Key]:
     """The keys a learner weighs. Of the context's atoms and the shared answer (the last atom):
     every key of up to two, and of three or more only with the shared answer among them (the
-    shared knowledge refined by two features). Each atom of the recent past: alone, beside one
-    context atom, and beside the shared answer — a sequence refines a snapshot, it does not
-    replace it.
+    shared knowledge refined by two features). With ``recent``, after them, each of the
+    ``n_recent`` atoms of the recent past: alone, beside one context atom, and beside the shared
+    answer — a sequence refines a snapshot, it does not replace it.
 
-    >>> _keys(3, 2, 1)  # one context atom (0), one recent (1), the shared answer (2)
+    >>> _keys(3, 2, recent=True, n_recent=1)  # one context atom (0), one recent (1), the shared (2)
     [(), (0,), (2,), (0, 2), (1,), (0, 1), (1, 2)]
     """
     shared = n_atoms - 1
     context = [*range(n_atoms - 1 - n_recent), shared]
     keys = [k for r in range(order + 1) for k in combinations(context, r) if r <= 2 or shared in k]
-    for j in range(n_atoms - 1 - n_recent, shared):
+    for j in range(n_atoms - 1 - n_recent, shared) if recent else ():
         keys += [(j,), *((c, j) for c in context[:-1]), (j, shared)]
     return keys
 
@@ -139,7 +139,10 @@ class ServiceLearner:
         self.prior = prior
         self.n_recent = n_recent
         self._unknown = ("unknown",) * n_recent
-        self.keys = _keys(n_atoms, order, n_recent)
+        # the recent past's keys join at the first example that knows it (until then every
+        # such key would only repeat its sub-keys' counts)
+        self.keys = _keys(n_atoms, order, recent=False, n_recent=n_recent)
+        self._recent_on = False
         self.cuts: dict[int, tuple[float, ...]] = dict(numeric)
         # per example: readings, codes, wanted, the shared answer, the caller's id, recent atoms
         self._examples: list[tuple[Sequence[float | None], Sequence[int], bool, bool, int, Recent]] = []
@@ -149,20 +152,37 @@ class ServiceLearner:
         self._partial = False  # any partial example: only the keys with the shared answer answer
         # per key (by position in self.keys): its cells' counts [wanted, unwanted, latest] and
         # its leave-one-out loss
-        self._tables: list[dict[tuple[Atom, ...], list[int]]] = [{} for _ in self.keys]
-        self._loo = [0.0] * len(self.keys)
-        self._cell = [_cell_of(k) for k in self.keys]
-        self._index = {k: i for i, k in enumerate(self.keys)}
-        # per key, its keys with one atom less
-        self._subs = [[self._index[k[:m] + k[m + 1 :]] for m in range(len(k))] for k in self.keys]
-        shared_atom = n_atoms - 1
-        self._shared_keys = [i for i, k in enumerate(self.keys) if shared_atom in k]
-        self._shared_subs = [[j for j in subs if shared_atom in self.keys[j]] for subs in self._subs]
-        self._prior_rank = [(-len(prior.intersection(k)), len(set(k) - prior)) for k in self.keys]
+        self._tables: list[dict[tuple[Atom, ...], list[int]]] = []
+        self._loo: list[float] = []
+        self._index_keys()
         self._best: int | None = None  # the best key's position, and every key's loss rounded
         self._rounded: list[float] = []
         self._backoff: list[Key] | None = None
         self._next_cut = 4
+
+    def _index_keys(self) -> None:
+        """Tables for keys new in ``self.keys``, and what is derived from the keys."""
+        self._tables += [{} for _ in range(len(self.keys) - len(self._tables))]
+        self._loo += [0.0] * (len(self.keys) - len(self._loo))
+        self._cell = [_cell_of(k) for k in self.keys]
+        self._index = {k: i for i, k in enumerate(self.keys)}
+        # per key, its keys with one atom less
+        self._subs = [[self._index[k[:m] + k[m + 1 :]] for m in range(len(k))] for k in self.keys]
+        shared_atom = self.n_atoms - 1
+        self._shared_keys = [i for i, k in enumerate(self.keys) if shared_atom in k]
+        self._shared_subs = [[j for j in subs if shared_atom in self.keys[j]] for subs in self._subs]
+        self._prior_rank = [(-len(self.prior.intersection(k)), len(set(k) - self.prior)) for k in self.keys]
+
+    def _start_recent(self) -> None:
+        """The recent past's keys join, with every example so far counted in them."""
+        start = len(self.keys)
+        self.keys = _keys(self.n_atoms, self.order, recent=True, n_recent=self.n_recent)
+        self._recent_on = True
+        self._index_keys()
+        new = range(start, len(self.keys))
+        shared = [i for i in new if i in set(self._shared_keys)]
+        for e, atoms in enumerate(self._atoms):
+            self._count(atoms, self._examples[e][2], shared if self._partials[e] else new, self._weights[e])
 
     @property
     def n_examples(self) -> int:
@@ -209,6 +229,8 @@ class ServiceLearner:
         refines what the shared knowledge says where it says it, and a service with such
         examples answers by those keys only — so a few switches, all of them "wanted", do not
         spread over every context."""
+        if recent and not self._recent_on and any(a != "unknown" for a in recent):
+            self._start_recent()
         self._examples.append((readings, codes, wanted, shared, ident, recent))
         self._weights.append(weight)
         self._partials.append(partial)
