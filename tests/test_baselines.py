@@ -79,12 +79,12 @@ def test_naive_bayes_is_rivers_bernoulli_one_vs_rest():
 
 
 def test_keys_are_the_homes_own_features():
-    paper = load_home("paper")
-    assert key_features(paper) == ["location", "behavior"]
+    paper = load_home("paper")  # every categorical feature, whatever its name
+    assert key_features(paper) == ["location", "posture", "behavior"]
     keys = frequency_keys(paper)
-    assert keys["TurnOnLight"] == ["location", "behavior", "ceiling_light"]
-    assert keys["SendDrinks"] == ["location", "behavior"]
-    studio = load_home(HOMES / "studio.yaml")  # no location or behavior: its categorical features
+    assert keys["TurnOnLight"] == ["location", "posture", "behavior", "ceiling_light"]
+    assert keys["SendDrinks"] == ["location", "posture", "behavior"]
+    studio = load_home(HOMES / "studio.yaml")
     assert key_features(studio) == ["activity"]
     assert frequency_keys(studio)["LampOn"] == ["activity", "desk_lamp"]
 

@@ -137,7 +137,9 @@ def test_eval_json_and_learning_curve(tmp_path, capsys):
     assert code == 0, err
     data = json.loads(out)
     assert data["scenarios"] == 400
-    assert set(data["methods"]) == {"multi", "paper", "kmeans", "hoeffding", "frequency", "naive_bayes"}
+    assert set(data["methods"]) == {
+        *("multi", "paper", "kmeans", "hoeffding", "frequency", "naive_bayes", "ha_usage", "markov")
+    }
     for m in data["methods"].values():
         assert set(m) >= {"precision", "recall", "f1", "exact"}
         assert 0 <= m["precision"] <= 1

@@ -182,6 +182,10 @@ def replay(
     joint: Annotated[
         bool, typer.Option("--joint", help="Start from the paper's joint Q table (small homes only).")
     ] = False,
+    predictions: Annotated[
+        Path | None,
+        typer.Option(help="Write every method's answer to every event into this file, a JSON line an event."),
+    ] = None,
     json: JsonOption = False,
 ) -> None:
     """Prequential evaluation: every method predicts each event, then learns it."""
@@ -194,7 +198,11 @@ def replay(
         raise UsageProblemError(f"--events {events}: no such file")
     if report is not None:
         check_writable(report / "replay.md")
-    result = run_replay(h, events, methods=names, seed=seed, joint=joint, progress=status)
+    if predictions is not None:
+        _check_file("--predictions", predictions)
+    result = run_replay(
+        h, events, methods=names, seed=seed, joint=joint, progress=status, predictions=predictions
+    )
     data = result.as_dict()
     if report is not None:
         data["report"] = str(write_replay_report(data, report, f"{events.name} on {h.name}"))
@@ -207,6 +215,22 @@ def replay(
         stdout.print(f"{name}: {why}")
     if report is not None:
         stdout.print(f"report: {data['report']}")
+
+
+def _check_file(option: str, path: Path) -> None:
+    """Fail before the work when a file cannot be written there (one line naming it)."""
+    if path.is_dir():
+        raise UsageProblemError(f"{option} {path}: is a directory")
+    if not path.parent.is_dir():
+        raise UsageProblemError(f"{option} {path}: cannot write there: no directory {path.parent}")
+    existed = path.exists()
+    try:
+        with path.open("a", encoding="utf-8"):
+            pass
+    except OSError as e:
+        raise UsageProblemError(f"{option} {path}: cannot write there: {e.strerror}") from None
+    if not existed:
+        path.unlink()  # the replay makes it; a run that fails before leaves nothing behind
 
 
 def adapt_mit(

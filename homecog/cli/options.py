@@ -61,7 +61,7 @@ def status(message: str) -> None:
 
 
 #: Every method of ``eval`` and ``replay`` (homecog.evaluation.methods.METHODS), the default.
-ALL_METHODS = "multi,paper,kmeans,hoeffding,frequency,naive_bayes"
+ALL_METHODS = "multi,paper,kmeans,hoeffding,frequency,naive_bayes,ha_usage,markov"
 
 
 def method_names(text: str) -> list[str]:

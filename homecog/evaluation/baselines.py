@@ -1,21 +1,24 @@
 """Simple online learners beside the knowledge tree, so that every report says how ``multi``
 compares with what a plain count learns from the same stream.
 
-Both speak river's API: ``learn_one(x, y)`` and ``predict_one(x)``, where ``x`` is a dict of
+All speak river's API: ``learn_one(x, y)`` and ``predict_one(x)``, where ``x`` is a dict of
 feature name -> value (every value a string: category, bin, ``on``/``off``) and ``y`` the set of
-services wanted there.
+services wanted there. None reads a feature by its name: what they key on is said by kinds.
 
 - :class:`ServiceFrequency` (``frequency``): per service, how often it was wanted among the past
-  events of the same *key* — the home's categorical context of where the user is and what they do
-  (``location`` and ``behavior`` when the home has them; else its categorical features; else every
-  feature) and the state of the devices the service sets. A service is proposed when its frequency
-  in the key exceeds a threshold, and the threshold is chosen online: the one of
-  :data:`THRESHOLDS` that would have given the best micro F1 on the past events (each judged
-  before it was counted), so it uses nothing from the future.
+  events of the same *key* — the home's categorical context (every categorical feature; a home
+  without one: its clock features' bins; else nothing) and the state of the devices the
+  service sets. A service is proposed when its frequency in the key exceeds a threshold, and
+  the threshold is chosen online: the one of :data:`THRESHOLDS` that would have given the best
+  micro F1 on the past events (each judged before it was counted), so it uses nothing from the
+  future.
 - :class:`ServiceNaiveBayes` (``naive_bayes``): river's Bernoulli naive Bayes, one binary model
   per service (one-vs-rest) over the one-hot features ``name=value``.
+- ``ha_usage`` and ``markov`` (:mod:`homecog.evaluation.sequence_baselines`): Home Assistant's
+  most used services per time of day over 30 days, and a last-event Markov chain; they also
+  read the event's time and the services wanted before it (``point.recent``).
 
-:class:`OnlineMethod` puts either on a home's points for ``eval`` and ``replay``.
+:class:`OnlineMethod` puts any of them on a home's points for ``eval`` and ``replay``.
 
 >>> f = ServiceFrequency({"TurnOnLamp": ["location", "lamp"]})
 >>> for _ in range(3):
@@ -31,23 +34,25 @@ from typing import Any
 
 import numpy as np
 
+from homecog.evaluation.sequence_baselines import AT, HOUR, PREVIOUS, HAUsage, ServiceMarkov, bin_middle
 from homecog.home.codec import Point, Space
 from homecog.home.model import Home
+from homecog.home.recent import Recent
 from homecog.knowledge.threshold import OnlineThreshold
 
 #: The thresholds the frequency learner chooses among (a service is proposed above it).
 THRESHOLDS = tuple(i / 10 for i in range(10))
-#: The features of the key, by name, when the home has them as categorical features.
-KEY_FEATURES = ("location", "behavior")
-
 Features = Mapping[str, Any]
 
 
 def key_features(home: Home) -> list[str]:
-    """The context features of the frequency key: where the user is and what they do."""
-    categorical = [f.name for f in home.features if f.kind == "categorical"]
-    named = [n for n in KEY_FEATURES if n in categorical]
-    return named or categorical or list(home.feature_names)
+    """The context features of the frequency key, by kind: every categorical feature; a home
+    without one, its clock features (their bins); else none (the key is the devices alone)."""
+    for kind in ("categorical", "clock"):
+        names = [f.name for f in home.features if f.kind == kind]
+        if names:
+            return names
+    return []
 
 
 def frequency_keys(home: Home) -> dict[str, list[str]]:
@@ -134,12 +139,26 @@ class ServiceNaiveBayes:
             self._model(s).learn_one(hot, s in y)
 
 
-BASELINES = ("frequency", "naive_bayes")
+BASELINES = ("frequency", "naive_bayes", "ha_usage", "markov")
+#: The baselines that also read the event's time and the services wanted before it.
+SEQUENCE = ("ha_usage", "markov")
+
+Learner = Any  # ServiceFrequency, ServiceNaiveBayes, HAUsage or ServiceMarkov
 
 
 def features_of(space: Space, point: Point) -> dict[str, str]:
     """A point as the baselines see it: every feature's value or bin, every device on/off."""
     return {dim.name: dim.values[int(code)] for dim, code in zip(space.dims, point.codes, strict=True)}
+
+
+def make_learner(name: str, home: Home) -> Learner:
+    """The learner of baseline ``name`` for a home, knowing nothing yet."""
+    if name == "frequency":
+        return ServiceFrequency(frequency_keys(home))
+    if name == "naive_bayes":
+        return ServiceNaiveBayes(home.service_names)
+    sets = {s.name: s.sets for s in home.services}
+    return HAUsage(sets) if name == "ha_usage" else ServiceMarkov(sets)
 
 
 class OnlineMethod:
@@ -151,22 +170,51 @@ class OnlineMethod:
         self.name = name
         self.home = home
         self.space = Space(home)
-        self.learner: ServiceFrequency | ServiceNaiveBayes = (
-            ServiceFrequency(frequency_keys(home))
-            if name == "frequency"
-            else ServiceNaiveBayes(home.service_names)
-        )
+        self.learner: Learner = make_learner(name, home)
+        self.clock = next((j for j, f in enumerate(home.features) if f.kind == "clock"), None)
+
+    def features(
+        self,
+        codes: Sequence[int],
+        readings: Sequence[float | None] | None = None,
+        recent: Recent | None = None,
+    ) -> dict[str, Any]:
+        """What the learner sees of a row: :func:`features_of`, and for ``ha_usage`` and
+        ``markov`` the event's time, its clock's hour and the services wanted before it."""
+        dims = self.space.dims
+        x: dict[str, Any] = {dim.name: dim.values[int(c)] for dim, c in zip(dims, codes, strict=True)}
+        if self.name in SEQUENCE:
+            x[AT] = None if recent is None else recent.at
+            x[PREVIOUS] = None if recent is None else recent.previous
+            x[HOUR] = self._hour(codes, readings)
+        return x
+
+    def _hour(self, codes: Sequence[int], readings: Sequence[float | None] | None) -> float | None:
+        """The clock feature's reading, else the middle of its bin (None: the home has none)."""
+        if self.clock is None:
+            return None
+        reading = None if readings is None else readings[self.clock]
+        if reading is not None and reading == reading:  # not NaN
+            return float(reading)
+        bins = self.home.features[self.clock].bins
+        assert bins is not None
+        return bin_middle(*bins[int(codes[self.clock])])
 
     def predict_one(self, point: Point) -> list[str]:
-        chosen = self.learner.predict_one(features_of(self.space, point))
+        chosen = self.learner.predict_one(self.features(point.codes, point.readings, point.recent))
         return [s for s in self.home.service_names if s in chosen]
 
     def learn_one(self, point: Point, wanted: Iterable[str]) -> None:
-        self.learner.learn_one(features_of(self.space, point), set(wanted))
+        self.learner.learn_one(self.features(point.codes, point.readings, point.recent), set(wanted))
 
-    def learn_samples(self, codes: np.ndarray, performed: np.ndarray) -> None:
-        """Learn rows of start states (codes) and the services performed there (a bool matrix)."""
+    def learn_samples(
+        self, codes: np.ndarray, performed: np.ndarray, readings: np.ndarray | None = None
+    ) -> None:
+        """Learn rows of start states (codes, and readings where known: NaN or None are not)
+        and the services performed there (a bool matrix). Samples have no time and no
+        sequence: ``ha_usage`` places them by their clock, ``markov`` counts them alone."""
         names = self.home.service_names
-        for row, done in zip(codes.tolist(), performed.tolist(), strict=True):
-            x = {dim.name: dim.values[c] for dim, c in zip(self.space.dims, row, strict=True)}
+        rows = readings.tolist() if readings is not None else [None] * len(codes)
+        for row, done, read in zip(codes.tolist(), performed.tolist(), rows, strict=True):
+            x = self.features(row, read)
             self.learner.learn_one(x, {names[a] for a, d in enumerate(done) if d})

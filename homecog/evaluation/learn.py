@@ -35,7 +35,8 @@ DRAWS = 30_000
 #: updates about 150,000 features a second here, so 10 million is about a minute.
 HOEFFDING_BUDGET = 10_000_000
 HOEFFDING_SAMPLES = 8_000
-#: Samples the frequency baseline counts, and the naive Bayes baseline learns. river's
+#: Samples the counting baselines (frequency, ha_usage, markov) count, and the naive Bayes
+#: baseline learns. river's
 #: BernoulliNB takes about 0.15 ms a sample and service to learn and about 0.5 ms a service to
 #: answer (paper: 10 ms a scenario), so it is given fewer samples, and is left out, like the
 #: Hoeffding trees, where (samples × services) passes its budget (homes of over 50 services).
@@ -78,7 +79,7 @@ def _baseline(name: str, home: Home, samples: SampleSet, n: int, seed: int) -> O
     """A simple online learner that has learned ``n`` of the samples, in a random order."""
     method = OnlineMethod(name, home)
     pick = np.random.default_rng([seed, 11]).permutation(len(samples))[:n]
-    method.learn_samples(samples.codes[pick], samples.positions[pick] >= 0)
+    method.learn_samples(samples.codes[pick], samples.positions[pick] >= 0, samples.readings[pick])
     return method
 
 
@@ -158,7 +159,7 @@ def learn_methods(
                 progress("learning hoeffding ...")
             out[name] = HoeffdingMethod(draws, max_samples=HOEFFDING_SAMPLES, seed=seed, features=seen)
         elif name in BASELINES:
-            n = FREQUENCY_SAMPLES if name == "frequency" else NAIVE_BAYES_SAMPLES
+            n = NAIVE_BAYES_SAMPLES if name == "naive_bayes" else FREQUENCY_SAMPLES
             work = n * len(home.services)
             if name == "naive_bayes" and work > NAIVE_BAYES_BUDGET:
                 skipped[name] = (

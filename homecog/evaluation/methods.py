@@ -3,18 +3,21 @@
 - ``multi`` and ``paper``: the IHDR tree in its two modes.
 - ``kmeans``: the paper's Table 9 baseline — scikit-learn K-means over the training samples
   (normalized as Table 7), each cluster predicting the services present in at least half of
-  its members; a context gets the services of its nearest centroid.
+  its members; a context gets the services of its nearest centroid. In ``replay`` it learns
+  the stream as the other methods do (:meth:`KMeansMethod.learn_one`).
 - ``hoeffding``: river's Hoeffding tree, one binary classifier per service, learned online
   from a stream of samples (features as the tree sees them: categories and bins as nominal
   values, readings as numbers, devices as on/off).
-- ``frequency`` and ``naive_bayes``: simple online learners (:mod:`homecog.evaluation.baselines`),
-  learned from the samples in ``eval`` and from the household's own events alone in ``replay``.
+- ``frequency``, ``naive_bayes``, ``ha_usage`` and ``markov``: simple online learners
+  (:mod:`homecog.evaluation.baselines`), learned from the samples in ``eval`` and from the
+  household's own events alone in ``replay``.
 
 Every method answers ``predict_one(point)`` with the services in priority order.
 """
 
 from __future__ import annotations
 
+from collections import deque
 from collections.abc import Sequence
 from typing import Any, Protocol
 
@@ -25,7 +28,11 @@ from homecog.home.model import Home
 from homecog.knowledge.ihdr import IHDRTree
 from homecog.knowledge.samples import SampleSet
 
-METHODS = ("multi", "paper", "kmeans", "hoeffding", "frequency", "naive_bayes")
+METHODS = ("multi", "paper", "kmeans", "hoeffding", "frequency", "naive_bayes", "ha_usage", "markov")
+#: K-means in a replay: its centroids move every REFIT events (at least k), and its clusters'
+#: services are those of the last HISTORY events.
+REFIT = 50
+HISTORY = 10_000
 
 
 class Method(Protocol):
@@ -82,7 +89,17 @@ class Normalizer:
 
 
 class KMeansMethod:
-    """K-means over the training samples; a cluster predicts services in ≥ half of its members."""
+    """K-means over the training samples; a cluster predicts services in ≥ half of its members.
+
+    In a replay it learns the stream (:meth:`learn_one`), since a K-means that answered from
+    its training clusters throughout would be judged on what it never had the chance to learn:
+    every event joins its nearest cluster at once, and every :data:`REFIT` events (at least k)
+    the centroids move to the new events by scikit-learn's ``MiniBatchKMeans.partial_fit``
+    (started from the trained centroids) and the last :data:`HISTORY` events are assigned
+    again. A cluster that has events of the stream predicts the services in at least half of
+    them; one that has none still those of its training samples. Both steps cost a bounded
+    time an event, so a long stream stays fast.
+    """
 
     name = "kmeans"
 
@@ -93,8 +110,10 @@ class KMeansMethod:
         pick = rng.permutation(len(samples))[:max_samples]
         self.home: Home = samples.space.home
         self.norm = Normalizer(samples.space)
+        self.seed = seed
         x = self.norm.rows(samples.codes[pick], samples.readings[pick])
         self.model = KMeans(n_clusters=min(k, len(pick)), n_init=3, random_state=seed).fit(x)
+        self.centers = np.asarray(self.model.cluster_centers_, dtype=np.float64)
         performed = samples.positions[pick] >= 0
         labels = self.model.labels_
         self.services = [
@@ -104,11 +123,57 @@ class KMeansMethod:
             for c in range(self.model.n_clusters)
         ]
         self.priority = _priorities(samples)
+        n, a = self.model.n_clusters, len(self.home.services)
+        self._members = np.zeros(n, dtype=np.int64)  # per cluster: events of the stream
+        self._wanted = np.zeros((n, a), dtype=np.int64)  # per cluster and service: wanted
+        self._history: deque[tuple[np.ndarray, np.ndarray]] = deque(maxlen=HISTORY)
+        self._new: list[np.ndarray] = []
+        self._stream: Any = None  # the MiniBatchKMeans, from the first refit on
+
+    def _nearest(self, rows: np.ndarray) -> np.ndarray:
+        """The nearest centroid of every row."""
+        d = (rows * rows).sum(axis=1)[:, None] - 2 * rows @ self.centers.T + (self.centers**2).sum(axis=1)
+        return np.argmin(d, axis=1)
+
+    def _cluster_services(self, c: int) -> np.ndarray:
+        if self._members[c]:
+            return np.flatnonzero(self._wanted[c] / self._members[c] >= 0.5)
+        return self.services[c]
 
     def predict_one(self, point: Point) -> list[str]:
-        c = int(self.model.predict(self.norm.row(point)[None, :])[0])
-        chosen = sorted(self.services[c].tolist(), key=lambda a: (self.priority[a], a))
+        c = int(self._nearest(self.norm.row(point)[None, :])[0])
+        chosen = sorted(self._cluster_services(c).tolist(), key=lambda a: (self.priority[a], a))
         return [self.home.services[a].name for a in chosen]
+
+    def learn_one(self, point: Point, wanted: Sequence[str]) -> None:
+        """Learn one event of a stream: it joins its nearest cluster; every :data:`REFIT`
+        events the centroids move and the recent events are assigned again."""
+        row = self.norm.row(point)
+        done = np.array([s.name in wanted for s in self.home.services], dtype=np.int64)
+        c = int(self._nearest(row[None, :])[0])
+        self._members[c] += 1
+        self._wanted[c] += done
+        self._history.append((row, done))
+        self._new.append(row)
+        if len(self._new) >= max(REFIT, len(self.centers)):
+            self._refit()
+
+    def _refit(self) -> None:
+        from sklearn.cluster import MiniBatchKMeans
+
+        if self._stream is None:
+            self._stream = MiniBatchKMeans(
+                n_clusters=len(self.centers), init=self.centers, n_init=1, random_state=self.seed
+            )
+        self._stream.partial_fit(np.array(self._new))
+        self._new.clear()
+        self.centers = np.asarray(self._stream.cluster_centers_, dtype=np.float64)
+        rows = np.array([r for r, _ in self._history])
+        done = np.array([d for _, d in self._history])
+        labels = self._nearest(rows)
+        self._members = np.bincount(labels, minlength=len(self.centers))
+        self._wanted = np.zeros_like(self._wanted)
+        np.add.at(self._wanted, labels, done)
 
 
 class HoeffdingMethod:
