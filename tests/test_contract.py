@@ -73,6 +73,24 @@ def test_the_context_is_an_object_of_the_homes_features_and_devices(schema, pape
     assert change["properties"] == props and "required" not in change
 
 
+def test_a_correction_is_the_whole_set_or_a_change_of_some_services(schema, paper):
+    correction = schema["components"]["schemas"]["CorrectionIn"]
+    assert correction["oneOf"] == [{"required": ["want"]}, {"required": ["change"]}]
+    assert correction["required"] == ["context"] and correction["additionalProperties"] is False
+    assert list(correction["properties"]) == ["context", "want", "change", "user"]
+    want = correction["properties"]["want"]
+    assert (want["type"], want["items"]["enum"], want["maxItems"]) == (
+        "array",
+        list(paper.service_names),
+        200,
+    )
+    assert correction["properties"]["change"]["$ref"] == "#/components/schemas/CorrectionChange"
+    change = schema["components"]["schemas"]["CorrectionChange"]
+    assert list(change["properties"]) == list(paper.service_names)  # each service once at most
+    assert all(p["enum"] == ["add", "reject"] for p in change["properties"].values())
+    assert change["additionalProperties"] is False and change["minProperties"] == 1
+
+
 def test_every_error_is_documented_with_the_one_model(schema):
     operations = {(m.upper(), p): op for p, ops in schema["paths"].items() for m, op in ops.items()}
     assert set(operations) == {

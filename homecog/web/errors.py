@@ -24,7 +24,7 @@ from starlette.exceptions import HTTPException as StarletteHTTPException
 from homecog.errors import ContextError, HomecogError, PlanningError, StoreError
 from homecog.home.model import Home
 from homecog.home.states import parse_state
-from homecog.web.models import ErrorOut
+from homecog.web.models import CORRECTION_ERRORS, ErrorOut
 
 log = logging.getLogger("homecog.web")
 BODY_UNREADABLE = "There was an error parsing the body"  # FastAPI's 400
@@ -137,6 +137,14 @@ def validation_message(errors: Any, home: Home) -> str:
         return f"unknown service {given!r}; " + (
             f"expected some of {known}" if where[0] == "want" else f"the home has {known}"
         )
+    if kind in CORRECTION_ERRORS:  # a correction's own rules: their message says it all
+        return str(e.get("msg", "invalid correction"))
+    if len(where) == 2 and where[0] == "change" and kind == "extra_forbidden":
+        return f"unknown service {where[1]!r}; expected some of {', '.join(home.service_names)}"
+    if len(where) == 2 and where[0] == "change" and kind == "literal_error":
+        return f'change: {where[1]}: expected "add" or "reject", not {given!r}'
+    if where == ["change"] and kind.endswith(("dict_type", "typed_dict_type")):
+        return 'change: expected an object of services, each "add" or "reject"'
     if not where and kind in ("model_attributes_type", "dict_type", "model_type"):
         return "body: expected a JSON object"
     msg = str(e.get("msg", "invalid"))

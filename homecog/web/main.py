@@ -7,6 +7,7 @@
 ``PUT /api/context``      manual mode: set some features or devices
 ``POST /api/cognize``     ``{"context": {...}, "user": ...}`` → services, unknown, explanations
 ``POST /api/corrections`` ``{"context": {...}, "want": [...], "user": ...}`` → added, rejected
+                          (or ``"change": {"S1": "add", "S2": "reject"}``: those services only)
 ``POST /api/plan``        ``{"services": [...], "context": {...}}`` → actions, tree, simulation
 ``GET /api/history``      corrections so far and how the robot's agreement with users grew
 ``GET /api/actions``      what the robot did lately, when and why; what the household did

@@ -19,9 +19,10 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Annotated, Any, Literal
+from typing import Annotated, Any, Literal, Self
 
-from pydantic import BaseModel, ConfigDict, Field, Strict, create_model
+from pydantic import AfterValidator, BaseModel, ConfigDict, Field, Strict, create_model, model_validator
+from pydantic_core import PydanticCustomError
 from typing_extensions import TypedDict
 
 from homecog.home.model import Feature, Home
@@ -233,6 +234,51 @@ class HistoryOut(BaseModel):
     agreement: list[AgreementOut] = Field(description="The running agreement over those corrections.")
 
 
+# -- a correction: the whole set wanted, or a change of some services ---------------------------
+#: The validation errors a correction's own rules raise; their message is the whole answer.
+CORRECTION_ERRORS = ("correction_form", "correction_change_empty")
+WHOLE_OR_CHANGE = "want (the whole set wanted) or change (some services)"
+
+
+class CorrectionForm(BaseModel):
+    """A correction gives ``want`` (every service wanted there; the others are not) or ``change``
+    (some services, each ``"add"`` or ``"reject"``; every other service keeps what it had), never
+    both: a ``oneOf`` of the two in the schema, and :meth:`one_form` here."""
+
+    model_config = ConfigDict(
+        **STRICT, json_schema_extra={"oneOf": [{"required": ["want"]}, {"required": ["change"]}]}
+    )
+
+    @model_validator(mode="after")
+    def one_form(self) -> Self:
+        """Exactly one of ``want`` and ``change`` given."""
+        given = {"want", "change"} & self.model_fields_set
+        if len(given) != 1:
+            message = f"give {WHOLE_OR_CHANGE}, not both" if given else f"missing {WHOLE_OR_CHANGE}"
+            raise PydanticCustomError("correction_form", message)
+        return self
+
+
+def _names_a_service(change: dict[str, str]) -> dict[str, str]:
+    if not change:
+        raise PydanticCustomError(
+            "correction_change_empty", 'change names no service; give some, each "add" or "reject"'
+        )
+    return change
+
+
+def _change_type(home: Home) -> Any:
+    """``{service: "add" | "reject"}`` for some of the home's services: an object cannot name a
+    service twice, so no service is both added and rejected."""
+    verdict = Annotated[
+        Literal["add", "reject"],
+        Field(description='"add": wanted here too; "reject": not wanted here.'),
+    ]
+    change: Any = TypedDict("CorrectionChange", dict.fromkeys(home.service_names, verdict), total=False)  # type: ignore[misc]
+    change.__pydantic_config__ = ConfigDict(**STRICT, json_schema_extra={"minProperties": 1})
+    return Annotated[change, AfterValidator(_names_a_service)]
+
+
 # -- the context of one home --------------------------------------------------------------------
 @dataclass(frozen=True)
 class HomeModels:
@@ -265,9 +311,27 @@ class HomeModels:
         )
         correction_in = create_model(
             "CorrectionIn",
-            __config__=STRICT,
+            __base__=CorrectionForm,
+            __doc__="The services the user wants in the context: `want`, the whole set (every other "
+            'service is not wanted), or `change`, some services each "add" or "reject" (every other '
+            "service keeps what it had); one of the two, never both.",
             context=(context, in_context),
-            want=(list[service], Field(max_length=200, description="The services wanted (empty: none).")),
+            want=(
+                list[service],
+                Field(
+                    default_factory=list,
+                    max_length=200,
+                    description="The whole set of services wanted (empty: none); the others are not.",
+                ),
+            ),
+            change=(
+                _change_type(home),
+                Field(
+                    default_factory=dict,
+                    description='Instead of want: some services, each "add" or "reject"; every '
+                    "other service keeps what it had.",
+                ),
+            ),
             user=(User, "default"),
         )
         plan_in = create_model(

@@ -1,20 +1,97 @@
-"""``POST /api/corrections``: the services a user wants in a context; the robot learns at once."""
+"""``POST /api/corrections``: the services a user wants in a context; the robot learns at once.
 
-from fastapi import APIRouter
+The body gives ``want``, the whole set wanted (as the HMI sends it), or ``change``, some
+services each ``"add"`` or ``"reject"`` (as ``homecog correct --add/--reject``): the others keep
+what they had. An object cannot name a service twice, so no correction both adds and rejects
+one; a body whose JSON names a key twice (which JSON parsers read as the last) is refused.
+"""
 
+import json
+from collections.abc import Callable, Coroutine, Mapping
+from typing import Any
+
+from fastapi import APIRouter, Request, Response
+from fastapi.routing import APIRoute
+
+from homecog.knowledge.kinds import Kind
+from homecog.robot.runtime import Runtime
 from homecog.web.deps import RuntimeDep
 from homecog.web.errors import responses
 from homecog.web.models import CorrectionOut, HomeModels
 
 
+class TwiceNamedError(ValueError):
+    """A JSON object of the body names a key twice."""
+
+
+def _once(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
+    """``object_pairs_hook`` of :func:`json.loads`: an object, refused if it names a key twice."""
+    out: dict[str, Any] = {}
+    for key, value in pairs:
+        if key in out:
+            raise TwiceNamedError(key)
+        out[key] = value
+    return out
+
+
+class OnceNamedRoute(APIRoute):
+    """A route whose JSON body may not name a key twice: ``{"change": {"LampOn": "add",
+    "LampOn": "reject"}}`` would otherwise be read as a rejection alone."""
+
+    def get_route_handler(self) -> Callable[[Request], Coroutine[Any, Any, Response]]:
+        handle = super().get_route_handler()
+
+        async def handler(request: Request) -> Response:
+            try:
+                json.loads(await request.body(), object_pairs_hook=_once)
+            except TwiceNamedError as e:
+                detail = f"body: {e.args[0]!r} is given twice in one object; give each name once"
+                return Response(json.dumps({"detail": detail}), 422, media_type="application/json")
+            except ValueError:
+                pass  # not JSON (or not UTF-8): FastAPI words it
+            return await handle(request)
+
+        return handler
+
+
+def correct_some(
+    runtime: Runtime, context: Mapping[str, object], change: Mapping[str, str], user: str
+) -> dict[str, Any]:
+    """Learn and store an explicit correction of some services: those marked ``"add"`` are
+    wanted, those marked ``"reject"`` are not, every other service keeps what it had."""
+    adds = [s for s, verdict in change.items() if verdict == "add"]
+    rejects = [s for s, verdict in change.items() if verdict == "reject"]
+    concerns = adds + rejects
+    point = runtime.space.point(context)
+    with runtime.lock:
+        added, rejected = runtime.store.correct(runtime.tree, point, adds, user, Kind(concerns=concerns))
+    experiences = runtime.store.experience_count()  # outside the lock: cognition need not wait
+    runtime.publish(
+        "correction",
+        {
+            "user": user,
+            "want": adds,
+            "added": added,
+            "rejected": rejected,
+            "kind": "explicit",
+            "concerns": concerns,
+        },
+    )
+    return {"added": added, "rejected": rejected, "experiences": experiences, "user": user}
+
+
 def router(models: HomeModels) -> APIRouter:
     """The correction route of one home."""
-    r = APIRouter(tags=["cognition"])
+    r = APIRouter(tags=["cognition"], route_class=OnceNamedRoute)
 
     @r.post("/api/corrections", response_model=CorrectionOut, responses=responses(413, 422, 503))
     def correct(body: models.correction_in, runtime: RuntimeDep) -> CorrectionOut:
-        """The services the user wants in the context: the robot learns at once, for that user,
-        and the experience log keeps it. 503 when the knowledge database cannot be used."""
+        """The services the user wants in the context: the whole set (`want`), or some services
+        each added or rejected (`change`), every other service keeping what it had. The robot
+        learns at once, for that user, and the experience log keeps it. 503 when the knowledge
+        database cannot be used."""
+        if "change" in body.model_fields_set:
+            return CorrectionOut(**correct_some(runtime, body.context, body.change, body.user))
         return CorrectionOut(**runtime.correct(body.context, body.want, body.user))
 
     return r

@@ -1,8 +1,9 @@
 """``GET /api/events``: a live stream of server-sent events.
 
 ``context`` (the whole context, as ``GET /api/context`` gives it) first and whenever the home
-changes; ``correction`` (``{"user", "want", "added", "rejected"}``) when one is stored. A comment
-line keeps the connection alive every 15 s.
+changes; ``correction`` (``{"user", "want", "added", "rejected", "kind"}``, and ``"concerns"``
+where it spoke of some services only) when one is stored. A comment line keeps the connection
+alive every 15 s.
 """
 
 from __future__ import annotations
