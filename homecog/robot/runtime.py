@@ -131,17 +131,20 @@ class Runtime:
             answer = self.tree.explain_one(point, user=user)
         return orjson.dumps(answer)
 
-    def correct(self, context: Mapping[str, object], want: list[str], user: str) -> dict[str, Any]:
-        """Learn and store an explicit correction; the store's log keeps it (and the history)."""
+    def correct(
+        self, context: Mapping[str, object], want: list[str], user: str, concerns: list[str] | None = None
+    ) -> dict[str, Any]:
+        """Learn and store an explicit correction; the store's log keeps it (and the history).
+        ``want`` is the whole set wanted, or with ``concerns`` which of those services are
+        (the others keep what they had)."""
         point = self.space.point(context)
         wanted = parse_services(want, self.home)
+        how = Kind(concerns=concerns) if concerns is not None else None
         with self.lock:
-            added, rejected = self.store.correct(self.tree, point, wanted, user)
+            added, rejected = self.store.correct(self.tree, point, wanted, user, how)
         experiences = self.store.experience_count()  # outside the lock: cognition need not wait
-        self.publish(
-            "correction",
-            {"user": user, "want": wanted, "added": added, "rejected": rejected, "kind": "explicit"},
-        )
+        event = {"user": user, "want": wanted, "added": added, "rejected": rejected, "kind": "explicit"}
+        self.publish("correction", {**event, **({"concerns": concerns} if concerns is not None else {})})
         return {"added": added, "rejected": rejected, "experiences": experiences, "user": user}
 
     def _learn(self, context: Mapping[str, str], want: list[str], user: str, how: Kind) -> None:

@@ -7,14 +7,12 @@ one; a body whose JSON names a key twice (which JSON parsers read as the last) i
 """
 
 import json
-from collections.abc import Callable, Coroutine, Mapping
+from collections.abc import Callable, Coroutine
 from typing import Any
 
 from fastapi import APIRouter, Request, Response
 from fastapi.routing import APIRoute
 
-from homecog.knowledge.kinds import Kind
-from homecog.robot.runtime import Runtime
 from homecog.web.deps import RuntimeDep
 from homecog.web.errors import responses
 from homecog.web.models import CorrectionOut, HomeModels
@@ -54,32 +52,6 @@ class OnceNamedRoute(APIRoute):
         return handler
 
 
-def correct_some(
-    runtime: Runtime, context: Mapping[str, object], change: Mapping[str, str], user: str
-) -> dict[str, Any]:
-    """Learn and store an explicit correction of some services: those marked ``"add"`` are
-    wanted, those marked ``"reject"`` are not, every other service keeps what it had."""
-    adds = [s for s, verdict in change.items() if verdict == "add"]
-    rejects = [s for s, verdict in change.items() if verdict == "reject"]
-    concerns = adds + rejects
-    point = runtime.space.point(context)
-    with runtime.lock:
-        added, rejected = runtime.store.correct(runtime.tree, point, adds, user, Kind(concerns=concerns))
-    experiences = runtime.store.experience_count()  # outside the lock: cognition need not wait
-    runtime.publish(
-        "correction",
-        {
-            "user": user,
-            "want": adds,
-            "added": added,
-            "rejected": rejected,
-            "kind": "explicit",
-            "concerns": concerns,
-        },
-    )
-    return {"added": added, "rejected": rejected, "experiences": experiences, "user": user}
-
-
 def router(models: HomeModels) -> APIRouter:
     """The correction route of one home."""
     r = APIRouter(tags=["cognition"], route_class=OnceNamedRoute)
@@ -91,7 +63,9 @@ def router(models: HomeModels) -> APIRouter:
         learns at once, for that user, and the experience log keeps it. 503 when the knowledge
         database cannot be used."""
         if "change" in body.model_fields_set:
-            return CorrectionOut(**correct_some(runtime, body.context, body.change, body.user))
+            adds = [s for s, verdict in body.change.items() if verdict == "add"]
+            concerns = adds + [s for s, verdict in body.change.items() if verdict == "reject"]
+            return CorrectionOut(**runtime.correct(body.context, adds, body.user, concerns))
         return CorrectionOut(**runtime.correct(body.context, body.want, body.user))
 
     return r
