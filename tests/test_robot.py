@@ -4,6 +4,7 @@ the journal and its undo, partial evidence, the log's kinds through a rebuild.""
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 from pathlib import Path
 
 import pytest
@@ -158,7 +159,8 @@ def test_the_robots_own_switch_teaches_nothing_and_a_person_undoing_it_rejects_i
     assert "RaiseBlind" not in runtime.cognize(now, "default")["services"]
     assert "RaiseBlind" in runtime.cognize(now, "kim")["services"]  # for that user only
     # never fight: the robot leaves the blind alone while the situation is the same
-    runtime.tree.correct_one(now, ["RaiseBlind"], "default", concerns=["RaiseBlind"], weight=5)
+    live = replace(runtime.space.point(now), recent=runtime.moments.recent(runtime.context()))
+    runtime.tree.correct_one(live, ["RaiseBlind"], "default", concerns=["RaiseBlind"], weight=5)
     assert "RaiseBlind" in runtime.cognize(runtime.context(), "default")["services"]
     assert runtime.act_now("default") is None and runtime.context()["blind"] == "off"
     assert runtime.status()["left_alone"] >= 1 and runtime.status()["fights"] == 0
@@ -403,3 +405,24 @@ def test_a_database_that_fails_stops_neither_the_robot_nor_an_undo_for_good(stor
     done = client.post(f"/api/actions/{action.id}/undo")
     assert done.status_code == 200 and done.json()["rejected"] == action.services
     assert action.undone_here and set(action.undone) == {d for d, _ in action.switches}
+
+
+def test_the_robot_lives_a_stream_of_moments_and_learns_with_their_recent_past(stored, tmp_path):
+    """A person's switch and the robot's own are moments of the stream; what the robot learns
+    from the household's hands keeps the recent past of its moment, through a rebuild."""
+    runtime = make_runtime(stored, tmp_path)
+    runtime.act_now("default")  # the robot's own switches: moments with what it carried out
+    acted = runtime.journal.recent(1)[0]
+    assert acted.switches
+    assert set(acted.services) <= runtime.moments.recent(runtime.context()).previous
+    runtime.set_context({"activity": "relax", "light": 300})
+    runtime.source.switch("desk_lamp", runtime.context()["desk_lamp"] != "on")  # a person
+    wanted = kinds(runtime)[-1][1]
+    recent = runtime.moments.recent(runtime.context())
+    assert recent.previous == frozenset(wanted)
+    assert recent.since_switched("desk_lamp") == "<5"
+    assert recent.value("previous activity") == "work"  # the situation before relaxing
+    examples = runtime.store.rebuild().user_examples("default")
+    assert examples[-1].recent is not None
+    assert examples[-1].recent.value("weekday") == runtime.moments.now().strftime("%a").lower()
+    assert examples[-1].recent.value("minutes in activity") == "<5"

@@ -21,7 +21,7 @@ from __future__ import annotations
 import logging
 import threading
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -43,6 +43,7 @@ from homecog.robot.events import EventBus, tell_all
 from homecog.robot.guidance import QUIET_SITUATION, Guidance
 from homecog.robot.holds import Holds, situation
 from homecog.robot.journal import Journal
+from homecog.robot.moments import Moments
 
 log = logging.getLogger("homecog.robot")
 #: what the household's hands taught: switches, undos, situations lived with the devices as left
@@ -86,6 +87,7 @@ class Runtime:
         self.household_switches = 0  # device changes by people (and automations) seen
         self._situation: tuple[float, dict[str, str] | None] = (0.0, None)  # since, latest context
         self._acting = threading.RLock()  # the robot acts, or an action is undone: one at a time
+        self.moments = Moments(self.home, self.source.clock, simulated=isinstance(self.source, SimulatedHome))
         self.source.listen(self._changed)
 
     @property
@@ -148,8 +150,11 @@ class Runtime:
         return {"added": added, "rejected": rejected, "experiences": experiences, "user": user}
 
     def _learn(self, context: Mapping[str, str], want: list[str], user: str, how: Kind) -> None:
-        """A correction the household's hands made (observed, undo): learned and logged."""
-        point = self.space.point(context)
+        """A correction the household's hands made (observed, undo): learned and logged, with
+        the recent past of its moment; a person's switch is a moment of the stream."""
+        point = replace(self.space.point(context), recent=self.moments.recent(context))
+        if how.kind == "observed" and want:
+            self.moments.lived(context, want)
         with self.lock:
             added, rejected = self.store.correct(self.tree, point, want, user, how)
         log.info("learned %s for %s: %s wanted %s", how.kind, user, ", ".join(how.concerns or ()), bool(want))
@@ -210,15 +215,23 @@ class Runtime:
         self._follow_situation(now, user)
         done = None
         for _ in range(len(self.home.devices) + 1):
-            point = self.space.point(now)
+            point = replace(self.space.point(now), recent=self.moments.recent(now))
             with self.lock:
                 proposed = self.tree.predict_one(point, user=user)
             acted = self.act(now, proposed, user=user, one_switch=True)
             if acted is None:
+                if self.moments.changed(now):  # a moment where nobody switched
+                    self.moments.lived(now, [])
                 break
+            self.moments.lived(now, [s for s in proposed if self._changes(s, now)])
             done, now = acted, self.source.snapshot()
             self._situation = (self._situation[0], now)  # the situation's latest: as the robot left it
         return done
+
+    def _changes(self, service: str, now: Mapping[str, str]) -> bool:
+        """Whether a service would change anything in the context (an errand always does)."""
+        sets = self.home.services[self.home.service_index(service)].sets
+        return not sets or any(now.get(d) != ("on" if on else "off") for d, on in sets)
 
     def act(
         self,
