@@ -55,7 +55,13 @@ class EvaluationError(HomecogError):
 
 
 class RealDataError(HomecogError):
-    """A data folder that cannot be read as the MIT home-activity format."""
+    """A data folder that cannot be read as the format of its data set (the MIT home-activity
+    data, van Kasteren's houses)."""
+
+
+class LogFileError(HomecogError):
+    """A log of state changes that cannot be read: a missing column, a bad timestamp, a file
+    that is not UTF-8 text, or a home without a ``log`` section."""
 
 
 class MqttError(ContextError):

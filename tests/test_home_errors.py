@@ -153,7 +153,7 @@ BAD_CASES = [
     pytest.param(
         put("extras", {"a": 1}),
         "bad.yaml: extras: unknown key; expected one of name, description, context, devices, "
-        "services, comfort, needs, prohibited, rewards, layout, routine, home_assistant, household",
+        "services, comfort, needs, prohibited, rewards, layout, routine, home_assistant, household, log",
         id="unknown-section",
     ),
     pytest.param(put("name", ""), "bad.yaml: name: expected a non-empty string, got ''", id="empty-name"),

@@ -17,7 +17,7 @@ DATA = Path(__file__).resolve().parents[2] / "shared" / "realdata" / "mit-home-a
 pytestmark = pytest.mark.skipif(not DATA.is_dir(), reason=f"no real data at {DATA}")
 
 
-@pytest.mark.parametrize(("subject", "events", "devices"), [("subject1", 295, 10), ("subject2", 208, 11)])
+@pytest.mark.parametrize(("subject", "events", "devices"), [("subject1", 994, 10), ("subject2", 1096, 11)])
 def test_subject_becomes_a_home_and_events(tmp_path, capsys, subject, events, devices):
     assert main(["adapt-mit", str(DATA / subject), "--out", str(tmp_path), "--json"]) == 0
     capsys.readouterr()
@@ -70,7 +70,7 @@ def test_broken_data_names_file_and_line(tmp_path, capsys):
 
 def test_location_comes_from_the_other_sensors_never_the_devices(tmp_path):
     """The light switched during an activity is what the robot predicts: it must not say where
-    the user is."""
+    the user is. Location is the room of the last other sensor activated, held 30 minutes."""
     from homecog.evaluation.mit import convert
 
     folder = tmp_path / "subject9"
@@ -79,11 +79,11 @@ def test_location_comes_from_the_other_sensors_never_the_devices(tmp_path):
         "101,Bathroom,Light switch\n102,Bathroom,Exhaust fan\n103,Kitchen,Cabinet\n104,Kitchen,Light switch\n"
     )
     blocks = [
-        # the bathroom's devices fire three times, the kitchen's cabinet once: the kitchen
+        # the bathroom's devices fire three times, then the kitchen's cabinet once (17:34)
         ("Toileting,4/1/2003,17:30:00,17:50:00", ["101", "102", "101", "103"]),
         # only devices fire: where the user is is not known
         ("Toileting,4/2/2003,17:30:00,17:50:00", ["101", "102"]),
-        # no device at all
+        # no device at all; the cabinet fires after the activity, past the log's end
         ("Preparing lunch,4/3/2003,12:00:00,12:20:00", ["103"]),
     ]
     lines = []
@@ -95,6 +95,17 @@ def test_location_comes_from_the_other_sensors_never_the_devices(tmp_path):
     _, events, n = convert(folder, tmp_path / "out")
     with events.open() as f:
         table = list(csv.DictReader(f))
-    assert n == 3
-    assert [r["location"] for r in table] == ["kitchen", "unknown", "kitchen"]
-    assert table[0]["services"] == "TurnOnLightBathroom;TurnOnFanBathroom"
+    assert n == len(table) == 21
+    switches = [(r["timestamp"][5:16], r["location"], r["services"]) for r in table if r["services"]]
+    on, off = "TurnOnLightBathroom", "TurnOffLightBathroom"
+    fan_on, fan_off = "TurnOnFanBathroom", "TurnOffFanBathroom"
+    first = [("31", on), ("31", off), ("32", fan_on), ("32", fan_off), ("33", on), ("33", off)]
+    assert switches == [
+        *[(f"04-01T17:{m}", "unknown", s) for m, s in first],
+        *[(f"04-02T17:{m}", "unknown", s) for m, s in first[:4]],
+    ]
+    # the cabinet (17:34) came within 10 minutes of a switch: no quiet row then; at the
+    # activity's end the user is still in the kitchen, until the cabinet's 30 minutes are over
+    quiet = [(r["timestamp"][5:16], r["location"], r["behavior"]) for r in table if not r["services"]]
+    assert quiet[:2] == [("04-01T17:50", "kitchen", "idle"), ("04-01T18:04", "unknown", "idle")]
+    assert ("04-03T12:00", "unknown", "cooking") in quiet

@@ -62,6 +62,12 @@ def history(
     ha_token: TokenOption = None,
     since: Annotated[str | None, typer.Option(help="From this ISO 8601 time (local unless it says).")] = None,
     until: Annotated[str | None, typer.Option(help="Until this ISO 8601 time (excluded).")] = None,
+    quiet: Annotated[
+        float | None,
+        typer.Option(
+            min=0, help="Also write quiet rows: a feature change with no switch this many minutes around it."
+        ),
+    ] = None,
     json: JsonOption = False,
 ) -> None:
     """Write an event file of the household's own switches from the recorder.
@@ -78,7 +84,7 @@ def history(
 
         (user,) = query(home_assistant, _token(ha_token), ["auth/current_user"])
         robots = (user["id"],)
-    result = read_history(h, recorder, out, exclude_users=robots, since=since, until=until)
+    result = read_history(h, recorder, out, exclude_users=robots, since=since, until=until, quiet=quiet)
     data = result.as_dict()
     data["homecog_user"] = robots[0] if robots else None
     if json:
@@ -88,7 +94,10 @@ def history(
         stdout.print(f"warning: {line}", highlight=False)
     per_device = ", ".join(f"{d} {n}" for d, n in result.devices.items()) or "none"
     left_out = ", ".join(f"{k.replace('_', ' ')} {n}" for k, n in result.skipped.items() if n) or "nothing"
-    stdout.print(f"wrote {out}: {result.events} switches by people ({per_device})", highlight=False)
+    quiet_rows = "" if result.quiet is None else f" and {result.quiet} quiet rows"
+    stdout.print(
+        f"wrote {out}: {result.events} switches by people ({per_device}){quiet_rows}", highlight=False
+    )
     stdout.print(f"left out: {left_out}", highlight=False)
     if not robots:
         stdout.print(

@@ -16,6 +16,7 @@ from typer._click import exceptions as click_errors
 
 from homecog.cli import evaluate, fleet, home, knowledge, learn, plan, up
 from homecog.cli.ha import ha_app
+from homecog.cli.log import adapt_kasteren, log_app
 from homecog.errors import HomecogError
 
 app = typer.Typer(
@@ -28,6 +29,7 @@ app = typer.Typer(
 home_app = typer.Typer(help="Show or check home definitions.", no_args_is_help=True)
 app.add_typer(home_app, name="home")
 app.add_typer(ha_app, name="ha")
+app.add_typer(log_app, name="log")
 fleet_app = typer.Typer(help="Learn a fleet of homes into one database (SPEC §14).", no_args_is_help=True)
 app.add_typer(fleet_app, name="fleet")
 fleet_app.command("train")(fleet.fleet_train)
@@ -40,6 +42,7 @@ app.command()(knowledge.correct)
 app.command("eval")(evaluate.eval_command)
 app.command()(evaluate.replay)
 app.command("adapt-mit")(evaluate.adapt_mit)
+app.command("adapt-kasteren")(adapt_kasteren)
 app.command()(plan.plan)
 app.command()(plan.simulate)
 app.command()(up.up)

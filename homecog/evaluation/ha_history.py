@@ -1,5 +1,5 @@
 """``homecog ha history``: a household's own switches, read from a Home Assistant recorder, as an
-event file (SPEC §9, §12) that ``homecog replay`` evaluates on and the robot learns from.
+event file that ``homecog replay`` evaluates on and the robot learns from.
 
 The recorder keeps every state of every entity (``states`` joined with ``states_meta``) with the
 context that made it: ``context_user_id_bin``, the user whose call it was, and
@@ -16,7 +16,10 @@ off or off to on, *made by a person*:
 A switch without a user is a person's too: a wall switch or a device's own button reports the
 new state with no user behind it. The row gives the context as it was just before the switch —
 every feature's last readable state (a clock feature without an entity: the local time), every
-device's state — and, as ``services``, the home's service that makes that switch.
+device's state — and, as ``services``, the home's service that makes that switch. The rows
+become the conversion core's (:func:`log_rows`), which keeps the context and makes the rows
+(:mod:`~homecog.evaluation.event_stream`, as ``homecog log events`` does); asked for ``quiet``
+minutes, it adds quiet rows where a feature changes and no device switched near it.
 
 The recorder is read with SQLAlchemy: a SQLite file (read-only) or a MariaDB/PostgreSQL URL.
 Schemas 38 and later have what is needed (tested with 42, Home Assistant 2024.3); another is
@@ -25,19 +28,20 @@ refused with one line saying which.
 
 from __future__ import annotations
 
-import csv
 import json
 import logging
 import time
+from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, field
 from datetime import datetime
+from functools import partial
 from pathlib import Path
 from typing import Any
 
 from homecog.errors import ContextError, HomeAssistantError
-from homecog.home.clock import format_clock
+from homecog.evaluation.event_stream import EventStream, LogRow, Reader, Skip, service_for
 from homecog.home.home_assistant import NO_READING, DeviceEntity, FeatureEntity, feature_value, nearest
-from homecog.home.model import Home
+from homecog.home.model import Feature, Home
 
 log = logging.getLogger(__name__)
 
@@ -48,6 +52,8 @@ NEEDED = {
                "context_user_id_bin", "context_parent_id_bin"),
     "states_meta": ("metadata_id", "entity_id"),
 }  # fmt: skip
+REASONS = ("by_automation", "by_homecog", "unreadable", "incomplete", "no_service")
+__all__ = ["HistoryResult", "log_rows", "read_history", "recorder_url", "service_for"]
 
 
 @dataclass
@@ -61,8 +67,10 @@ class HistoryResult:
     schema: int
     seconds: float
     unrecorded: list[str] = field(default_factory=list)
+    quiet: int | None = None  # quiet rows, where they were asked for
 
     def as_dict(self) -> dict[str, Any]:
+        extra = {} if self.quiet is None else {"quiet": self.quiet}
         return {
             "events": self.events,
             "devices": self.devices,
@@ -71,6 +79,7 @@ class HistoryResult:
             "seconds": round(self.seconds, 3),
             "out": str(self.path),
             "unrecorded": self.unrecorded,
+            **extra,
         }
 
 
@@ -90,19 +99,6 @@ def recorder_url(recorder: str) -> str:
     if not path.is_file():
         raise HomeAssistantError(f"recorder {recorder}: {'is a folder' if path.is_dir() else 'no such file'}")
     return f"sqlite:///file:{path.resolve()}?mode=ro&uri=true"  # read-only: Home Assistant may be writing
-
-
-def service_for(home: Home, device: str, on: bool) -> str | None:
-    """The service that makes a switch: the one that sets only that device to that state, else
-    the one that sets it with the fewest other devices (the first in the home's order).
-
-    >>> from homecog.home import load_home
-    >>> home = load_home("paper")
-    >>> service_for(home, "ceiling_light", True), service_for(home, "window", False)
-    ('TurnOnLight', 'CloseWindow')
-    """
-    setters = [s for s in home.services if (device, on) in s.sets]
-    return min(setters, key=lambda s: len(s.sets)).name if setters else None
 
 
 def _parse_time(text: str | None, option: str) -> float | None:
@@ -125,8 +121,10 @@ def read_history(
     exclude_users: tuple[str, ...] = (),
     since: str | None = None,
     until: str | None = None,
+    quiet: float | None = None,
 ) -> HistoryResult:
-    """Write the event file of a home's recorded switches by people; see the module docstring."""
+    """Write the event file of a home's recorded switches by people; see the module docstring.
+    With ``quiet`` minutes it adds quiet rows (:mod:`~homecog.evaluation.event_stream`)."""
     from sqlalchemy import create_engine, text
     from sqlalchemy.exc import SQLAlchemyError
 
@@ -155,77 +153,71 @@ def read_history(
         for e in mapping.entities
         if e not in metas
     ]
-    robots = {bytes.fromhex(u) for u in exclude_users}
-    readers: dict[str, list[FeatureEntity | DeviceEntity]] = {}
-    for m in (*mapping.features, *mapping.devices):
-        readers.setdefault(m.entity, []).append(m)
-    clocks = [
-        f.name
-        for f in home.features
-        if f.kind == "clock" and f.name not in {m.feature for m in mapping.features}
-    ]
-    values: dict[str, str] = {}
-    states: dict[str, bool] = {}
-    readable: dict[str, bool] = {}  # entity -> whether its last state could be read
-    counts = dict.fromkeys(home.device_names, 0)
-    skipped = dict.fromkeys(("by_automation", "by_homecog", "unreadable", "incomplete", "no_service"), 0)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    names = [*home.feature_names, *home.device_names]
-    needed = [f for f in home.feature_names if f not in clocks]
-    with out.open("w", newline="", encoding="utf-8") as handle:
-        writer = csv.writer(handle)
-        writer.writerow(["timestamp", *names, "services"])
-        for entity, state, at, old_id, user, parent, attrs in rows:
-            counted = start is None or at >= start  # rows before the period only give the context
-            was_readable = readable.get(entity, False)
-            readable[entity] = state not in NO_READING
-            for m in readers[entity]:
-                if isinstance(m, FeatureEntity):
-                    raw = (
-                        state
-                        if m.attribute is None
-                        else (json.loads(attrs) if attrs else {}).get(m.attribute)
-                    )
-                    try:
-                        values[m.feature] = feature_value(home.feature(m.feature), m, raw)
-                    except ContextError:
-                        skipped["unreadable"] += counted
-                    continue
-                try:
-                    on = m.state(state)
-                except ContextError:
-                    skipped["unreadable"] += counted
-                    continue
-                before, states[m.device] = states.get(m.device), on
-                if not counted or before is None or before == on or old_id is None or not was_readable:
-                    continue
-                if parent:
-                    skipped["by_automation"] += 1
-                elif user and bytes(user) in robots:
-                    skipped["by_homecog"] += 1
-                elif (service := service_for(home, m.device, on)) is None:
-                    skipped["no_service"] += 1
-                elif any(f not in values for f in needed) or len(states) < len(home.devices):
-                    skipped["incomplete"] += 1
-                else:
-                    moment = datetime.fromtimestamp(at).astimezone()
-                    clock = format_clock(moment.hour + moment.minute / 60 + moment.second / 3600)
-                    row = {**values, **dict.fromkeys(clocks, clock)}
-                    row.update({d: "on" if s else "off" for d, s in states.items()})
-                    row[m.device] = "on" if before else "off"  # the context is the moment before
-                    writer.writerow(
-                        [moment.isoformat(timespec="milliseconds"), *(row[n] for n in names), service]
-                    )
-                    counts[m.device] += 1
+    stream = EventStream(home, _readers(home), quiet=quiet, reasons=REASONS, timespec="milliseconds")
+    for row in log_rows(rows, start, {bytes.fromhex(u) for u in exclude_users}):
+        stream.feed(row)
+    written = stream.write(out)
     return HistoryResult(
         path=out,
-        events=sum(counts.values()),
-        devices={d: n for d, n in counts.items() if n},
-        skipped=skipped,
+        events=sum(stream.switches.values()),
+        devices={d: n for d, n in stream.switches.items() if n},
+        skipped={k: stream.skipped[k] for k in REASONS},
         schema=schema,
         seconds=time.perf_counter() - begin,
         unrecorded=unrecorded,
+        quiet=None if quiet is None else written - sum(stream.switches.values()),
     )
+
+
+def log_rows(rows: Iterable[tuple], start: float | None, robots: set[bytes]) -> Iterator[LogRow]:
+    """The recorder's state rows as the core's rows: a change that follows from another (an
+    automation's) or that is homecog's own is no person's switch; one without an earlier
+    readable state of its entity (what an instance restores) is no switch at all; a row before
+    ``start`` only gives the context."""
+    readable: dict[str, bool] = {}  # entity -> whether its last state could be read
+    for entity, state, at, old_id, user, parent, attrs in rows:
+        was_readable, readable[entity] = readable.get(entity, False), state not in NO_READING
+        yield LogRow(
+            at=datetime.fromtimestamp(at).astimezone(),
+            entity=entity,
+            state=state,
+            extra=attrs,
+            counted=start is None or at >= start,
+            switchable=old_id is not None and was_readable,
+            skip="by_automation" if parent else "by_homecog" if user and bytes(user) in robots else None,
+        )
+
+
+def _readers(home: Home) -> dict[str, list[Reader]]:
+    """Per entity, how its states read as the home's features and devices."""
+    assert home.home_assistant is not None
+    out: dict[str, list[Reader]] = {}
+    for m in (*home.home_assistant.features, *home.home_assistant.devices):
+        if isinstance(m, FeatureEntity):
+            reader = Reader(m.feature, "feature", partial(_feature, home.feature(m.feature), m))
+        else:
+            reader = Reader(m.device, "device", partial(_device, m))
+        out.setdefault(m.entity, []).append(reader)
+    return out
+
+
+def _feature(feature: Feature, mapping: FeatureEntity, row: LogRow) -> str:
+    raw = (
+        row.state
+        if mapping.attribute is None
+        else (json.loads(row.extra) if row.extra else {}).get(mapping.attribute)
+    )
+    try:
+        return feature_value(feature, mapping, raw)
+    except ContextError:
+        raise Skip("unreadable") from None
+
+
+def _device(mapping: DeviceEntity, row: LogRow) -> bool:
+    try:
+        return mapping.state(row.state)
+    except ContextError:
+        raise Skip("unreadable") from None
 
 
 def _check_schema(db: Any, shown: str) -> int:

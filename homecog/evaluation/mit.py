@@ -1,19 +1,28 @@
-"""Real data: the MIT home-activity data (Munguia Tapia et al., Pervasive 2004) as a home and events.
+"""Real data: the MIT home-activity data (Munguia Tapia et al., Pervasive 2004) as a home, a log
+and events.
 
 Each subject's folder (``sensors.csv``, ``activities_data.csv``) becomes
 
 - a home file: the time of day, the outdoor illumination, where the subject is and what they do;
   their light switches, lamps, TVs and exhaust fan as devices, with a service to switch each
-  on and off; and common-sense comfort rules written without looking at the events (light where
+  on and off; common-sense comfort rules written without looking at the events (light where
   the user is when it is not bright, the TV for watching, the fan for the bathroom, everything
-  off when the user is out);
-- an event file (SPEC §9): one row per labelled activity, at its start: the context (the time
-  of its start; the outdoor illumination then; ``behavior`` from the activity's label;
-  ``location`` the room whose *other* sensors — cabinets, doors, appliances, never the devices
-  the robot is to switch — fired most during the activity, ``out`` when the label says the
-  subject went out), the devices' states then (a reed switch on a light switch is activated
-  when the light goes on and deactivated when it goes off), and as ``services`` what the
-  subject switched during the activity — the services this person really wanted.
+  off when the user is out); and a ``log:`` section mapping the log's entities;
+- a log (``timestamp,entity,state``, :mod:`~homecog.evaluation.log_writer`) from the first
+  labelled activity's start to the last one's end: every sensor that is not a device an entity
+  ``<object>_<id>`` in its room, every device one entity named as the device (a room's two
+  light switches are one), ``on`` when its reed switch is activated and ``off`` when it is
+  deactivated (a light switch's goes on with the light); the activities' labels the states of
+  the entity ``activity`` (the label of the activity under way that started last, ``idle``
+  between activities); ``outdoor_illumination`` every 10 minutes; each device ``off`` at the
+  start;
+- the event file, made from the log by ``homecog log events``: a row per switch of a device,
+  with the context just before it and the service that makes it, and a quiet row where the
+  location, the behavior or the illumination's bin changes with no switch within 10 minutes.
+  ``location`` is the room of the sensor that is not a device and was activated last among
+  those activated or deactivated less than 30 minutes ago (``unknown`` when none was): the
+  devices the robot is to switch never say where the user is. ``behavior`` is the activity's
+  label, grouped.
 
 Illumination is the clear-sky global horizontal irradiance of pvlib's Haurwitz model at the
 flats' city (Cambridge, Massachusetts) and the real dates and times, times 110 lx per W/m²: the
@@ -25,16 +34,22 @@ recorded devices depends on it.
 from __future__ import annotations
 
 import csv
-import re
+import json
 import warnings
 from dataclasses import dataclass, field
 from datetime import date, datetime, timedelta
 from pathlib import Path
 
 from homecog.errors import RealDataError
+from homecog.evaluation.log_events import convert_log
+from homecog.evaluation.log_writer import ACTIVITY, DEVICE, PRESENCE, LogWriter, camel, slug
+from homecog.home import load_home
+
+__all__ = ["behavior_of", "camel", "convert", "illumination", "read_activities", "read_sensors", "slug"]
 
 PLACE = {"latitude": 42.3601, "longitude": -71.0942, "tz": "America/New_York", "name": "Cambridge, MA"}
 LUX_PER_WATT = 110.0
+READING_MINUTES, HOLD, QUIET = 10, 30, 10
 
 BEHAVIOR = {
     "hygiene": ["Toileting", "Bathing", "Grooming", "Washing hands", "Taking medication"],
@@ -55,14 +70,6 @@ BEHAVIOR = {
     "out": ["Going out to work", "Going out for shopping", "Going out for entertainment"],
 }
 DEVICE_KINDS = {"light switch": "light", "lamp": "lamp", "tv": "tv", "exhaust fan": "fan"}
-
-
-def slug(text: str) -> str:
-    return re.sub(r"[^a-z0-9]+", "_", text.strip().lower()).strip("_")
-
-
-def camel(text: str) -> str:
-    return "".join(part.capitalize() for part in slug(text).split("_"))
 
 
 @dataclass
@@ -144,18 +151,6 @@ def behavior_of(name: str) -> str:
     return "chores"
 
 
-def location_of(activity: Activity, sensors: dict[str, tuple[str, str]], device_of: dict[str, str]) -> str:
-    """The room whose sensors fired most during an activity, among the sensors that are not
-    devices: a light switched during the activity is what the robot is to predict, so it must not
-    say where the user is. Ties go to the room first in alphabetical order; none fired: unknown."""
-    counts: dict[str, int] = {}
-    for sid, _, _ in activity.firings:
-        if sid in sensors and sid not in device_of:
-            room = slug(sensors[sid][0])
-            counts[room] = counts.get(room, 0) + 1
-    return max(sorted(counts), key=lambda r: counts[r]) if counts else "unknown"
-
-
 def illumination(times: list[datetime]) -> list[float]:
     """Clear-sky outdoor illuminance (lx) at the flats' city for local times."""
     import pandas as pd
@@ -171,10 +166,12 @@ def illumination(times: list[datetime]) -> list[float]:
 
 
 def convert(folder: Path, out: Path, name: str | None = None) -> tuple[Path, Path, int]:
-    """Write ``<name>.yaml`` and ``<name>-events.csv`` for a subject's folder; returns the paths
-    and the number of events."""
+    """Write ``<name>.yaml``, ``<name>-log.csv`` and ``<name>-events.csv`` for a subject's folder;
+    returns the home's and the event file's paths and the number of events."""
     sensors = read_sensors(folder / "sensors.csv")
     activities = sorted(read_activities(folder / "activities_data.csv"), key=lambda a: a.start)
+    if not activities:
+        raise RealDataError(f"{folder / 'activities_data.csv'}: no activities")
     name = name or f"mit_{slug(folder.name)}"
     devices: dict[str, tuple[str, str]] = {}  # device -> (room slug, kind)
     device_of: dict[str, str] = {}
@@ -186,64 +183,70 @@ def convert(folder: Path, out: Path, name: str | None = None) -> tuple[Path, Pat
             device_of[sid] = device
     if not devices:
         raise RealDataError(f"{folder}: no light switch, lamp, TV or fan among the sensors")
-    rooms = sorted({slug(r) for r, _ in sensors.values()})
-    on_intervals: dict[str, list[tuple[datetime, datetime]]] = {d: [] for d in devices}
+    log = LogWriter(activities[0].start, max(a.end for a in activities))
+    log.activities("activity", [(a.start, a.end, a.name) for a in activities])
+    firings: dict[str, list[tuple[datetime, datetime]]] = {d: [] for d in devices}
     for a in activities:
         for sid, on, off in a.firings:
-            if sid in device_of:
-                on_intervals[device_of[sid]].append((on, off))
-
-    def state(device: str, t: datetime) -> bool:
-        return any(on <= t < off for on, off in on_intervals[device])
-
-    lux = illumination([a.start for a in activities])
-    rows = []
-    for a, light in zip(activities, lux, strict=True):
-        behavior = behavior_of(a.name)
-        location = "out" if behavior == "out" else location_of(a, sensors, device_of)
-        # what the subject wanted at the start: a device switched on during the activity that was
-        # off, or one that was on and is off by its end
-        wanted = []
-        for device in devices:
-            before = state(device, a.start)
-            switched_on = any(a.start <= on <= a.end for on, _ in on_intervals[device])
-            if not before and switched_on:
-                wanted.append(f"TurnOn{camel(device)}")
-            elif before and not state(device, a.end):
-                wanted.append(f"TurnOff{camel(device)}")
-        rows.append(
-            {
-                "timestamp": a.start.isoformat(),
-                "time": a.start.strftime("%H:%M"),
-                "illumination": f"{light:g}",
-                "location": location,
-                "behavior": behavior,
-                **{d: "on" if state(d, a.start) else "off" for d in devices},
-                "services": ";".join(wanted),
-            }
-        )
-
+            firings.setdefault(device_of.get(sid) or entity_of(sid, sensors), []).append((on, off))
+    for entity, intervals in firings.items():
+        log.firings(entity, intervals, DEVICE if entity in devices else PRESENCE)
+    times = readings_times(log.start, log.end)
+    for t, lux in zip(times, illumination(times), strict=True):
+        log.add(t, "outdoor_illumination", f"{lux:g}", ACTIVITY)
     out.mkdir(parents=True, exist_ok=True)
-    locations = [*rooms, "out", "unknown"]
-    behaviors = list(BEHAVIOR)
-    home_path = out / f"{name}.yaml"
-    home_path.write_text(_home_yaml(name, folder, locations, behaviors, devices), encoding="utf-8")
-    events_path = out / f"{name}-events.csv"
-    columns = ["timestamp", "time", "illumination", "location", "behavior", *devices, "services"]
-    with events_path.open("w", newline="", encoding="utf-8") as f:
-        writer = csv.DictWriter(f, fieldnames=columns)
-        writer.writeheader()
-        writer.writerows(rows)
-    return home_path, events_path, len(rows)
+    home_path, log_path, events_path = (out / f"{name}{end}" for end in (".yaml", "-log.csv", "-events.csv"))
+    presence = {
+        entity_of(sid, sensors): slug(room) for sid, (room, _) in sensors.items() if sid not in device_of
+    }
+    labels = {a.name: behavior_of(a.name) for a in activities}
+    rooms = sorted({slug(r) for r, _ in sensors.values()})
+    home_path.write_text(
+        _home_yaml(name, folder, [*rooms, "unknown"], devices, presence, labels), encoding="utf-8"
+    )
+    log.write(log_path)
+    result = convert_log(load_home(home_path), log_path, events_path)
+    return home_path, events_path, result.rows
+
+
+def entity_of(sid: str, sensors: dict[str, tuple[str, str]]) -> str:
+    """The log's entity of a sensor that is not a device: ``<object>_<id>``.
+
+    >>> entity_of("57", {"57": ("Bathroom", "Medicine cabinet")}), entity_of("9", {})
+    ('medicine_cabinet_57', 'sensor_9')
+    """
+    return f"{slug(sensors[sid][1])}_{sid}" if sid in sensors else f"sensor_{sid}"
+
+
+def readings_times(start: datetime, end: datetime, every: int = READING_MINUTES) -> list[datetime]:
+    """The times of the illumination's readings: the start, then every ``every`` minutes of the
+    clock to the end.
+
+    >>> [t.strftime("%H:%M:%S") for t in readings_times(datetime(2003, 4, 1, 7, 3, 5),
+    ...     datetime(2003, 4, 1, 7, 25))]
+    ['07:03:05', '07:10:00', '07:20:00']
+    """
+    times = [start]
+    t = start.replace(minute=start.minute - start.minute % every, second=0, microsecond=0)
+    while (t := t + timedelta(minutes=every)) <= end:
+        times.append(t)
+    return times
 
 
 def _home_yaml(
-    name: str, folder: Path, locations: list[str], behaviors: list[str], devices: dict[str, tuple[str, str]]
+    name: str,
+    folder: Path,
+    locations: list[str],
+    devices: dict[str, tuple[str, str]],
+    presence: dict[str, str],
+    labels: dict[str, str],
 ) -> str:
     lines = [
         f"# Made by `homecog adapt-mit` from {folder.name} of the MIT home-activity data",
         "# (Munguia Tapia, Intille, Larson, Pervasive 2004). Illumination: pvlib clear-sky at "
         f"{PLACE['name']}.",
+        "# Its log: the sensors' activations and the labelled activities; its events:",
+        "# `homecog log events` of that log.",
         f"name: {name}",
         "context:",
         "  time:",
@@ -254,7 +257,7 @@ def _home_yaml(
         "    unit: lx",
         "    bins: {dark: [0, 10], dim: [10, 10000], bright: [10000, .inf]}",
         f"  location: {{kind: categorical, values: [{', '.join(locations)}]}}",
-        f"  behavior: {{kind: categorical, values: [{', '.join(behaviors)}]}}",
+        f"  behavior: {{kind: categorical, values: [{', '.join([*BEHAVIOR, 'idle'])}]}}",
         "devices:",
     ]
     lines += [f"  {d}: {{room: {room}, iot: true}}" for d, (room, _) in devices.items()]
@@ -272,4 +275,10 @@ def _home_yaml(
             "fan": "{when: {location: [%s], behavior: [hygiene]}, want: on}",
         }[kind] % room
         lines += [f"  {d}:", "    - {when: {behavior: [out]}, want: off}", f"    - {rule}"]
+    lines += ["log:", f"  quiet: {QUIET}", "  devices:", *(f"    {d}: {{entity: {d}}}" for d in devices)]
+    lines += ["  features:", "    illumination: {entity: outdoor_illumination}", "    behavior:"]
+    lines += ["      entity: activity", "      values:"]
+    lines += [f"        {json.dumps(label)}: {group}" for label, group in {**labels, "idle": "idle"}.items()]
+    lines += ["    location:", f"      hold: {HOLD}", "      presence:"]
+    lines += [f"        {entity}: {room}" for entity, room in presence.items()]
     return "\n".join(lines) + "\n"

@@ -29,6 +29,7 @@ from homecog.home.states import parse_state
 
 if TYPE_CHECKING:  # it imports this module
     from homecog.home.home_assistant import HomeAssistantMap
+    from homecog.home.log_section import LogMap
 
 FeatureKind = Literal["clock", "numeric", "categorical"]
 ON, OFF = True, False
@@ -224,6 +225,7 @@ class Home:
     routine: object | None = None
     home_assistant: HomeAssistantMap | None = None  # where it lives in Home Assistant (SPEC §12)
     household: Household = field(default_factory=Household)  # learning from people (§7.1)
+    log: LogMap | None = None  # which entities of a log of state changes it reads
     description: str | None = None
     source: str = "<memory>"
     content_hash: str = ""

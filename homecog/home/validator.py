@@ -3,7 +3,7 @@ error naming the file, the key path and what was expected (SPEC §2).
 
 The sections are validated by :class:`~homecog.home.context_section.ContextSection` (features)
 and :class:`~homecog.home.rule_sections.RuleSections` (comfort, needs, prohibited), with
-``layout``, ``routine`` and ``home_assistant`` in modules of their own; this module holds the
+``layout``, ``routine``, ``home_assistant`` and ``log`` in modules of their own; this module holds the
 rest (devices, services, rewards) and puts the home together.
 
 >>> HomeValidator("den.yaml").home({"name": "den", "context": {}})
@@ -19,6 +19,7 @@ from homecog.home.context_section import ContextSection
 from homecog.home.home_assistant import parse_home_assistant
 from homecog.home.household import parse_household
 from homecog.home.layout import parse_layout
+from homecog.home.log_section import parse_log
 from homecog.home.model import Device, Home, Rewards, Service, format_number
 from homecog.home.routine import parse_routine
 from homecog.home.rule_sections import RuleSections
@@ -38,6 +39,7 @@ _SECTIONS = (
     "routine",
     "home_assistant",
     "household",
+    "log",
 )
 _REQUIRED = ("name", "context", "devices", "services", "comfort")
 
@@ -95,6 +97,7 @@ class HomeValidator(ContextSection, RuleSections):
             routine=parse_routine(data.get("routine"), features, devices, self.fail),
             home_assistant=parse_home_assistant(data.get("home_assistant"), features, devices, self.fail),
             household=parse_household(data.get("household"), self.fail),
+            log=parse_log(data.get("log"), features, devices, self.fail),
             description=description,
             source=self.source,
         )
