@@ -177,3 +177,21 @@ def test_a_failed_batch_stores_nothing(db):
         fail_after_a_correction()
     store.close()
     assert snapshot(db) == before
+
+
+def test_events_learned_keep_the_recent_past_of_the_stream(db, tmp_path):
+    """Every row carries what came before it in the file, whoever's it is, through the store."""
+    studio = load_home(STUDIO)
+    rows = read_corrections(write(tmp_path / "e.csv", ROWS), studio, "ann")
+    first, second, fourth = rows[0].point.recent, rows[1].point.recent, rows[3].point.recent
+    assert first.previous is None and first.value("weekday") == "sun"  # 2026-03-01
+    assert second.previous == frozenset({"LampOn", "RaiseBlind", "RadioOff"})
+    assert second.value("minutes since previous") == "1-4h" and second.value("minutes in activity") == "1-4h"
+    assert fourth.value("previous activity") == "sleep" and fourth.value("weekday") == "mon"
+    assert main(["correct", "--home", STUDIO, "--db", db, "--events", str(tmp_path / "e.csv"), "--json"]) == 0
+    store = Store(db, studio)
+    try:
+        stored = store.rebuild().user_examples("kim")
+    finally:
+        store.close()
+    assert [e.recent for e in stored] == [rows[i].point.recent for i in (0, 2, 4)]

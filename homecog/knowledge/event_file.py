@@ -15,13 +15,14 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
 from homecog.errors import EvaluationError
 from homecog.home.codec import Point
 from homecog.home.model import Home
+from homecog.home.recent import RecentPast
 from homecog.home.scenario_file import load_scenarios
 from homecog.knowledge.ihdr import IHDRTree
 
@@ -65,14 +66,20 @@ class EventsLearned:
 
 
 def read_corrections(path: Path, home: Home, user: str) -> list[EventCorrection]:
-    """Every row of an event file as a correction, all checked before any is learned."""
+    """Every row of an event file as a correction, all checked before any is learned; each
+    with the recent past of the household's stream, in the file's order, as a replay has it."""
     if not user or len(user) > 200:
         raise EvaluationError("--user must be 1 to 200 characters")
     order = {name: a for a, name in enumerate(home.service_names)}
-    return [
-        EventCorrection(point=r.point, want=sorted(r.truth, key=order.__getitem__), user=r.user or user)
-        for r in load_scenarios(path, home, home, corrections=True)
-    ]
+    past = RecentPast(home)
+    out = []
+    for r in load_scenarios(path, home, home, corrections=True):
+        point = replace(r.point, recent=past.at(r.timestamp, r.context))
+        past.learn(r.timestamp, r.context, r.truth)
+        out.append(
+            EventCorrection(point=point, want=sorted(r.truth, key=order.__getitem__), user=r.user or user)
+        )
+    return out
 
 
 def learn_corrections(
