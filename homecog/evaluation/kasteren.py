@@ -25,8 +25,8 @@ A house's files in the folder — ``houseX-ss.txt`` (sensor firings ``start<TAB>
   - ``location``: the place (the sensor map's third column: Kitchen, KitchHeat and KitchStor are
     ``kitchen``, Toilet ``toilet``, Bathroom and BathroomDoor ``bathroom``, Sleep and SleepDoor
     ``bedroom``, Outside the ``entrance``, Other the ``living`` room) of the sensor that is not
-    a device and started firing last among those firing or stopped less than 30 minutes ago;
-    ``unknown`` when none is. Doors, cupboards, the fridge and freezer, the flush, pressure mats
+    a device and started firing last among those that started or stopped less than 30 minutes
+    ago; ``unknown`` when none did. Doors, cupboards, the fridge and freezer, the flush, pressure mats
     and motion sensors say where the person is; the devices never do;
   - ``behavior``: the activity under way: leave-house → ``out``, use-toilet → ``toilet``,
     take-shower → ``shower``, brush-teeth → ``brush_teeth``, go-to-bed → ``sleep``,
