@@ -70,7 +70,7 @@ def run_stream(name: str, corrections: int, seed: int, mit: Path, tmp: Path) -> 
         home_path, events, _ = convert(mit / subject, tmp, name)
         home = load_home(home_path)
         rows = load_scenarios(events, home, home, events=True)
-        what = "events (activities) of the subject"
+        what = "events of the subject (switches and quiet moments)"
     result = replay_rows(home, rows, methods=METHODS, seed=seed, points=100, progress=console.log)
     return what, result
 
