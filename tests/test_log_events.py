@@ -101,22 +101,31 @@ def test_quiet_minutes_decide_which_changes_are_rows(tmp_path: Path) -> None:
     assert (_convert(tmp_path, LOG, quiet=0).quiet, _convert(tmp_path, LOG, quiet=60).quiet) == (8, 0)
 
 
-def test_a_switch_before_the_context_is_known_and_a_user_left_out(tmp_path: Path) -> None:
+def test_a_reading_not_yet_known_is_unknown_a_device_not_yet_known_incomplete(tmp_path: Path) -> None:
     log = (
         "timestamp,entity,state,user\n"
         "2024-03-01T06:00:00,x10.blind,closed,\n2024-03-01T06:00:00,x10.lamp,off,\n"
-        "2024-03-01T06:00:00,x10.radio,off,\n2024-03-01T06:00:00,activity,Working,\n"
-        "2024-03-01T06:01:00,x10.lamp,on,kim\n"  # no light reading yet: incomplete
+        "2024-03-01T06:00:00,activity,Working,\n"
+        "2024-03-01T06:00:10,x10.lamp,on,kim\n"  # the radio's state not known yet: incomplete
+        "2024-03-01T06:00:20,x10.radio,off,\n"
+        "2024-03-01T06:00:30,x10.lamp,off,kim\n"  # no light reading yet: unknown
         "2024-03-01T06:02:00,sensor.lux,50,\n"
-        "2024-03-01T06:03:00,x10.lamp,off,robot\n"
+        "2024-03-01T06:03:00,x10.lamp,on,robot\n"
         "2024-03-01T06:04:00,x10.blind,1,kim\n"
     )
     result = _convert(tmp_path, log, exclude_users=["robot"])
-    assert (result.skipped["incomplete"], result.skipped["excluded_user"], result.switches) == (1, 1, 1)
-    # the location never fired: unknown, which the feature has
-    assert (tmp_path / "events.csv").read_text().splitlines()[1:] == [
-        "2024-03-01T06:04:00,06:04,50,work,unknown,off,off,off,RaiseBlind"
+    assert (result.skipped["incomplete"], result.skipped["excluded_user"], result.switches) == (1, 1, 2)
+    # the location never fired: unknown, which the feature has as a value; the light had no
+    # reading at 06:00:30: unknown, a missing reading
+    rows = (tmp_path / "events.csv").read_text().splitlines()[1:]
+    assert rows == [
+        "2024-03-01T06:00:30,06:00,unknown,work,unknown,off,on,off,LampOff",
+        "2024-03-01T06:04:00,06:04,50,work,unknown,off,on,off,RaiseBlind",
     ]
+    home = load_home(STUDIO_LOG)
+    first, second = load_scenarios(tmp_path / "events.csv", home, home, events=True)
+    light = home.feature_names.index("light")
+    assert (first.point.missing, second.point.missing) == (frozenset({light}), frozenset())
 
 
 @pytest.mark.parametrize(

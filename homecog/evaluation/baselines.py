@@ -147,8 +147,9 @@ Learner = Any  # ServiceFrequency, ServiceNaiveBayes, HAUsage or ServiceMarkov
 
 
 def features_of(space: Space, point: Point) -> dict[str, str]:
-    """A point as the baselines see it: every feature's value or bin, every device on/off."""
-    return {dim.name: dim.values[int(code)] for dim, code in zip(space.dims, point.codes, strict=True)}
+    """A point as the baselines see it: every feature's value or bin (``unknown`` where its
+    reading is missing), every device on/off."""
+    return {dim.name: space.word(point, j) for j, dim in enumerate(space.dims)}
 
 
 def make_learner(name: str, home: Home) -> Learner:
@@ -178,15 +179,19 @@ class OnlineMethod:
         codes: Sequence[int],
         readings: Sequence[float | None] | None = None,
         recent: Recent | None = None,
+        missing: frozenset[int] = frozenset(),
     ) -> dict[str, Any]:
         """What the learner sees of a row: :func:`features_of`, and for ``ha_usage`` and
         ``markov`` the event's time, its clock's hour and the services wanted before it."""
         dims = self.space.dims
-        x: dict[str, Any] = {dim.name: dim.values[int(c)] for dim, c in zip(dims, codes, strict=True)}
+        x: dict[str, Any] = {
+            dim.name: "unknown" if j in missing else dim.values[int(c)]
+            for j, (dim, c) in enumerate(zip(dims, codes, strict=True))
+        }
         if self.name in SEQUENCE:
             x[AT] = None if recent is None else recent.at
             x[PREVIOUS] = None if recent is None else recent.previous
-            x[HOUR] = self._hour(codes, readings)
+            x[HOUR] = None if self.clock in missing else self._hour(codes, readings)
         return x
 
     def _hour(self, codes: Sequence[int], readings: Sequence[float | None] | None) -> float | None:
@@ -201,11 +206,14 @@ class OnlineMethod:
         return bin_middle(*bins[int(codes[self.clock])])
 
     def predict_one(self, point: Point) -> list[str]:
-        chosen = self.learner.predict_one(self.features(point.codes, point.readings, point.recent))
+        chosen = self.learner.predict_one(self._seen(point))
         return [s for s in self.home.service_names if s in chosen]
 
     def learn_one(self, point: Point, wanted: Iterable[str]) -> None:
-        self.learner.learn_one(self.features(point.codes, point.readings, point.recent), set(wanted))
+        self.learner.learn_one(self._seen(point), set(wanted))
+
+    def _seen(self, point: Point) -> dict[str, Any]:
+        return self.features(point.codes, point.readings, point.recent, point.missing)
 
     def learn_samples(
         self, codes: np.ndarray, performed: np.ndarray, readings: np.ndarray | None = None

@@ -14,9 +14,9 @@ keeps the context as it goes and makes two kinds of rows:
   ``services`` empty. Changes at one moment make one row; a clock feature read from the
   timestamp changes no row.
 
-A row is written only once every feature and device has a value (else it counts as
-``incomplete``). Presence features (:class:`Presence`) change by themselves, when an entity's
-hold ends: that is a moment of its own.
+A row is written only once every device's state is known (else it counts as ``incomplete``);
+a feature with no reading yet is written ``unknown``, a missing reading. Presence features
+(:class:`Presence`) change by themselves, when an entity's hold ends: that is a moment of its own.
 
 >>> from datetime import datetime
 >>> from homecog.home import load_home
@@ -48,6 +48,7 @@ from pathlib import Path
 from typing import Any, Literal
 
 from homecog.home.clock import format_clock
+from homecog.home.codec import UNKNOWN
 from homecog.home.model import Home
 
 
@@ -260,17 +261,15 @@ class EventStream:
         return tuple(out)
 
     def _complete(self) -> bool:
-        values = all(
-            (self.presence[f.name].value if f.name in self.presence else self.values.get(f.name)) is not None
-            for f in self.watched
-        )
-        return values and len(self.states) == len(self.home.devices)
+        """Whether every device's state is known (a feature with no reading yet is ``unknown``)."""
+        return len(self.states) == len(self.home.devices)
 
     def _context(self, at: datetime, before: Mapping[str, bool]) -> list[str]:
         clock = format_clock(at.hour + at.minute / 60 + at.second / 3600)
         row = {
+            **dict.fromkeys(self.home.feature_names, UNKNOWN),
             **self.values,
-            **{n: p.value for n, p in self.presence.items()},
+            **{n: p.value for n, p in self.presence.items() if p.value is not None},
             **dict.fromkeys(self.clocks, clock),
         }
         row.update({d: "on" if s else "off" for d, s in {**self.states, **before}.items()})

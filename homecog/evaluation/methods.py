@@ -84,8 +84,12 @@ class Normalizer:
         return out
 
     def row(self, point: Point) -> np.ndarray:
+        """A point's row; a missing reading at the middle of its range (K-means needs a number,
+        and the middle favours no bin)."""
         readings = np.array([np.nan if r is None else r for r in point.readings], dtype=np.float64)
-        return self.rows(np.array([point.codes]), readings[None, :])[0]
+        out = self.rows(np.array([point.codes]), readings[None, :])[0]
+        out[list(point.missing)] = 0.5
+        return out
 
 
 class KMeansMethod:
@@ -214,17 +218,21 @@ class HoeffdingMethod:
 
     def _seen(self, x: dict[str, Any], a: int) -> dict[str, Any]:
         names = self.features[a]
-        return x if len(names) == len(x) else {k: x[k] for k in names}
+        return x if len(names) == len(x) else {k: x[k] for k in names if k in x}
 
     def learn_one(self, point: Point, wanted: Sequence[str]) -> None:
         """Learn one context and the services wanted there (the replay's step)."""
-        x = self._features(point.codes, point.readings)
+        x = self._features(point.codes, point.readings, point.missing)
         for a, model in enumerate(self.models):
             model.learn_one(self._seen(x, a), self.home.services[a].name in wanted)
 
-    def _features(self, codes: Any, readings: Any) -> dict[str, Any]:
+    def _features(self, codes: Any, readings: Any, missing: frozenset[int] = frozenset()) -> dict[str, Any]:
+        """A row as river sees it; a missing reading is left out (river's trees take an
+        absent feature as missing)."""
         x: dict[str, Any] = {}
         for j, dim in enumerate(self.space.dims):
+            if j in missing:
+                continue
             r = readings[j]
             if dim.numeric and r is not None and not (isinstance(r, float) and np.isnan(r)):
                 x[dim.name] = float(r)
@@ -233,7 +241,7 @@ class HoeffdingMethod:
         return x
 
     def predict_one(self, point: Point) -> list[str]:
-        x = self._features(point.codes, point.readings)
+        x = self._features(point.codes, point.readings, point.missing)
         chosen = [a for a, model in enumerate(self.models) if model.predict_one(self._seen(x, a))]
         chosen.sort(key=lambda a: (self.priority[a], a))
         return [self.home.services[a].name for a in chosen]

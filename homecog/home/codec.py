@@ -55,6 +55,30 @@ class Point:
     codes: tuple[int, ...]
     readings: tuple[float | None, ...]
     recent: Recent | None = None
+    # the features whose reading is missing (``unknown``): their code is a placeholder (0) that
+    # no stage may read as a value, their reading None
+    missing: frozenset[int] = frozenset()
+
+
+#: what a missing reading is written as (an empty cell reads as it too)
+UNKNOWN = "unknown"
+
+
+def is_missing(feature: Feature, value: object) -> bool:
+    """Whether a context's value for a feature says its reading is missing: ``unknown`` or
+    empty, where the feature has no value of that name (a categorical feature may list
+    ``unknown`` as one of its values, and then it is that value).
+
+    >>> from homecog.home import load_home
+    >>> home = load_home("paper")
+    >>> temperature = home.features[1]
+    >>> is_missing(temperature, "unknown"), is_missing(temperature, ""), is_missing(temperature, 25)
+    (True, True, False)
+    """
+    if value is None or not isinstance(value, str):
+        return value is None
+    word = value.strip().lower()
+    return word in (UNKNOWN, "") and not (feature.values and word in feature.values and feature.bins is None)
 
 
 class Space:
@@ -98,7 +122,12 @@ class Space:
         return len(self.dims)
 
     def point(self, context: Mapping[str, object]) -> Point:
-        """A full context (every feature and device, as in a scenario file) as a point."""
+        """A full context (every feature and device, as in a scenario file) as a point; a
+        feature's value ``unknown`` (or empty) is a missing reading (:func:`is_missing`)."""
+        features = self.home.features
+        missing = frozenset(j for j, f in enumerate(features) if is_missing(f, context.get(f.name, 0)))
+        if missing:
+            return self._point_missing(context, missing)
         if len(context) == len(self.names):
             try:
                 return self._fast_point(context)
@@ -110,6 +139,22 @@ class Space:
             readings.append(None if f.is_discrete else float(f.parse(context[f.name])))  # type: ignore[arg-type]
         readings += [None] * len(states)
         return Point(codes=codes + tuple(int(s) for s in states), readings=tuple(readings))
+
+    def _point_missing(self, context: Mapping[str, object], missing: frozenset[int]) -> Point:
+        """A point with missing readings: the others read as usual, the missing ones a
+        placeholder code (0) and no reading."""
+        filled = dict(context)
+        for j in missing:
+            f = self.home.features[j]
+            filled[f.name] = f.values[0] if f.bins is None else bin_reading(f.bins[0])
+        p = self.point(filled)
+        codes = tuple(0 if j in missing else c for j, c in enumerate(p.codes))
+        readings = tuple(None if j in missing else r for j, r in enumerate(p.readings))
+        return Point(codes=codes, readings=readings, missing=missing)
+
+    def word(self, p: Point, j: int) -> str:
+        """Dimension ``j`` of a point as one word: its value or bin, ``on``/``off``, or ``unknown``."""
+        return UNKNOWN if j in p.missing else self.dims[j].values[p.codes[j]]
 
     def _fast_point(self, context: Mapping[str, object]) -> Point:
         """The common case, well-formed input, without the validation of Home.discretize."""
@@ -141,8 +186,8 @@ class Space:
     def describe(self, p: Point) -> dict[str, str]:
         """A point as readable values: ``{"time": "22:00 (night)", "window": "on", ...}``."""
         out = {}
-        for dim, code, reading in zip(self.dims, p.codes, p.readings, strict=True):
-            value = dim.values[code]
+        for j, (dim, code, reading) in enumerate(zip(self.dims, p.codes, p.readings, strict=True)):
+            value = UNKNOWN if j in p.missing else dim.values[code]
             if reading is None:
                 out[dim.name] = value
             elif dim.kind == "clock":
@@ -154,8 +199,10 @@ class Space:
     def context(self, p: Point) -> dict[str, str]:
         """A point as a context mapping (readings as text, devices on/off), as a scenario row."""
         out = {}
-        for dim, code, reading in zip(self.dims, p.codes, p.readings, strict=True):
-            if reading is None:
+        for j, (dim, code, reading) in enumerate(zip(self.dims, p.codes, p.readings, strict=True)):
+            if j in p.missing:
+                out[dim.name] = UNKNOWN
+            elif reading is None:
                 out[dim.name] = dim.values[code]
             elif dim.kind == "clock":
                 out[dim.name] = format_clock(reading)
@@ -274,3 +321,22 @@ def _kind(home: Home, name: str) -> str:
     if name in home.device_names:
         return "device"
     return home.feature(name).kind
+
+
+def bin_reading(bin_: tuple[float, float]) -> float:
+    """A reading inside a bin ``[low, high)``: its middle where both ends are finite (a clock
+    bin may wrap midnight), else one unit inside its finite end.
+
+    >>> bin_reading((25.0, 30.0)), bin_reading((-math.inf, 25.0)), bin_reading((22.0, 6.0))
+    (27.5, 24.0, 2.0)
+    >>> bin_reading((30.0, math.inf))
+    31.0
+    """
+    low, high = bin_
+    if math.isinf(low):
+        return high - 1.0
+    if math.isinf(high):
+        return low + 1.0
+    if low > high:  # a clock bin over midnight
+        return (low + (high + 24 - low) / 2) % 24
+    return (low + high) / 2

@@ -27,7 +27,7 @@ from datetime import datetime
 from pathlib import Path
 
 from homecog.errors import ContextError, EvaluationError
-from homecog.home.codec import Point, Space, parse_services
+from homecog.home.codec import Point, Space, is_missing, parse_services
 from homecog.home.model import Home
 from homecog.home.states import parse_state
 
@@ -110,7 +110,8 @@ def load_scenarios(
                 value = row[name].strip()
                 try:
                     if j < space.n_features:
-                        home.features[j].discretize(value)
+                        if not is_missing(home.features[j], value):
+                            home.features[j].discretize(value)
                     else:
                         parse_state(value, name)
                 except ContextError as e:
@@ -127,6 +128,12 @@ def load_scenarios(
                 except ContextError as e:
                     raise EvaluationError(f"{path}: line {line}, column services: {e}") from None
                 truth_set, ambiguous = frozenset(wanted), ()
+            elif point.missing:
+                name = home.features[min(point.missing)].name
+                raise EvaluationError(
+                    f"{path}: line {line}, column {name}: a missing reading needs a services column "
+                    "(the truth home cannot say what is wanted where a reading is unknown)"
+                )
             else:
                 truth_set, ambiguous = truth_of(truth, point)
             out.append(

@@ -33,14 +33,16 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 from homecog.home.clock import format_clock
 from homecog.home.codec import Point, Space
 from homecog.home.model import Home, format_number
 from homecog.home.recent import Recent, recent_names
-from homecog.knowledge.evidence import Decision, ServiceLearner
+from homecog.knowledge.additive import AtomLogistic
+from homecog.knowledge.evidence import ServiceLearner
+from homecog.knowledge.keys import Decision, sign_of
 from homecog.knowledge.threshold import OnlineThreshold
 
 #: keys of at most this many atoms (features and the shared answer) ...
@@ -65,6 +67,12 @@ class Example:
     concerns: frozenset[int] | None = None
     weight: int = 1
     recent: Recent | None = None  # the recent past, where the correction came in a stream
+    missing: frozenset[int] = frozenset()  # the features whose reading was missing
+
+    @property
+    def point(self) -> Point:
+        """The example's context as a point."""
+        return Point(self.codes, self.readings, self.recent, self.missing)
 
     def speaks_of(self, a: int) -> bool:
         """Whether the example says anything about service ``a``."""
@@ -117,6 +125,8 @@ class UserLayers:
         self._made_at: dict[str, int] = {}
         # per user: the share of wanted examples above which their answers propose
         self._threshold: dict[str, OnlineThreshold] = {}
+        # per user who corrected in a stream: the additive model over every service's atoms
+        self._additive: dict[str, AtomLogistic] = {}
         # the latest answers: (user, point, the user's examples then, shared version), the
         # shared answer and the user's answers there
         self._last: tuple[tuple[Any, ...], frozenset[int], dict[int, Decision]] | None = None
@@ -135,7 +145,7 @@ class UserLayers:
 
     def set_examples(self, user: str, examples: list[Example]) -> None:
         """Replace a user's corrections (the store, loading them from the log)."""
-        for made in (self._learners, self._made_at, self._threshold):
+        for made in (self._learners, self._made_at, self._threshold, self._additive):
             made.pop(user, None)
         if examples:
             self._examples[user] = list(examples)
@@ -159,7 +169,7 @@ class UserLayers:
     ) -> None:
         """A user's correction: the services ``want`` wanted at ``p`` (of ``concerns``, or of
         every service), counted ``weight`` times; counted at once."""
-        example = Example(p.codes, p.readings, frozenset(want), concerns, weight, p.recent)
+        example = Example(p.codes, p.readings, frozenset(want), concerns, weight, p.recent, p.missing)
         examples = self._examples.setdefault(user, [])
         examples.append(example)
         if self._made_at.get(user) == self._version():
@@ -171,14 +181,14 @@ class UserLayers:
         threshold = self._threshold.get(user)
         if threshold is None:  # the user's: of THRESHOLDS, the best F1 on their corrections so far
             threshold = self._threshold[user] = OnlineThreshold(THRESHOLDS, calibrate=CALIBRATE)
-        codes, readings, recent = example.codes, example.readings, example.recent
+        codes, readings, recent = learner_codes(example.point), example.readings, example.recent
         # the answers just given at this point (a correction follows its cognition) are the
         # answers before this example; else they are asked again
         last = self._last
         if last is not None and last[0] == (user, codes, readings, recent, ident - 1, self._version()):
             shared, answers = last[1], last[2]
         else:
-            shared, answers = self._shared(Point(codes, readings)), {}
+            shared, answers = self._shared(example.point), {}
         for a in range(len(self._effects)):
             if not self.changes(a, codes) or not example.speaks_of(a):
                 continue
@@ -194,8 +204,8 @@ class UserLayers:
             wanted = a in example.want
             atoms = self.recent_atoms(a, recent)
             if example.concerns is None:  # a whole set: a fair sample of the user's answers
-                before = answers.get(a) or learner.decide(readings, codes, shared=a in shared, recent=atoms)
-                if before.wanted + before.unwanted:
+                before = answers.get(a) or self._answer(user, a, learner, example.point, a in shared, atoms)
+                if before.sign:  # the evidence said something there
                     threshold.judge(before.share, wanted)
             learner.add(
                 readings,
@@ -207,7 +217,31 @@ class UserLayers:
                 partial=example.concerns is not None,
                 recent=atoms,
             )
+            if recent is not None and example.concerns is None:  # a whole example of a stream
+                model = self._additive.setdefault(user, AtomLogistic())
+                model.learn_one(a, learner.atoms(readings, codes, a in shared, atoms), wanted, example.weight)
         self._last = None
+
+    def _answer(
+        self,
+        user: str,
+        a: int,
+        learner: ServiceLearner,
+        p: Point,
+        shared: bool,
+        atoms: tuple[str, ...],
+        threshold: float = 0.5,
+    ) -> Decision:
+        """A learner's answer at ``p``; in a stream, its probability averaged with the user's
+        additive model's (:mod:`homecog.knowledge.additive`), the key that explains it kept."""
+        codes = learner_codes(p)
+        decision = learner.decide(p.readings, codes, shared=shared, threshold=threshold, recent=atoms)
+        model = self._additive.get(user)
+        if model is None or not learner.streaming:
+            return decision
+        additive = model.predict_one(a, learner.atoms(p.readings, codes, shared, atoms))
+        share = (decision.share + additive) / 2
+        return replace(decision, share=share, sign=sign_of(share, threshold, decision.sign > 0))
 
     def recent_atoms(self, a: int, recent: Recent | None) -> tuple[str, ...]:
         """Service ``a``'s atoms of the recent past: its features' values, whether ``a`` was
@@ -244,13 +278,7 @@ class UserLayers:
         learner = self.learners(user).get(a)
         if learner is None or not self.changes(a, p.codes):
             return None
-        return learner.decide(
-            p.readings,
-            p.codes,
-            shared=shared,
-            threshold=self._value(user),
-            recent=self.recent_atoms(a, p.recent),
-        )
+        return self._answer(user, a, learner, p, shared, self.recent_atoms(a, p.recent), self._value(user))
 
     def decisions(self, user: str, p: Point, shared: frozenset[int]) -> Iterator[tuple[int, Decision]]:
         """Every service the user's evidence decides at ``p`` (propose or reject)."""
@@ -259,14 +287,10 @@ class UserLayers:
         answers = {}
         for a, learner in learners.items():
             if self.changes(a, p.codes):
-                answers[a] = learner.decide(
-                    p.readings,
-                    p.codes,
-                    shared=a in shared,
-                    threshold=threshold,
-                    recent=self.recent_atoms(a, p.recent),
+                answers[a] = self._answer(
+                    user, a, learner, p, a in shared, self.recent_atoms(a, p.recent), threshold
                 )
-        key = (user, p.codes, p.readings, p.recent, len(self._examples[user]), self._version())
+        key = (user, learner_codes(p), p.readings, p.recent, len(self._examples[user]), self._version())
         self._last = (key, shared, answers)
         for a, d in answers.items():
             if d.sign:
@@ -310,6 +334,17 @@ class UserLayers:
             "corrections": members[-10:],
         }
         return conditions, evidence
+
+
+def learner_codes(p: Point) -> tuple[int, ...]:
+    """A point's codes as the learners read them: −1 where a reading is missing.
+
+    >>> learner_codes(Point((2, 0, 1), (None, None, None), missing=frozenset({1})))
+    (2, -1, 1)
+    """
+    if not p.missing:
+        return p.codes
+    return tuple(-1 if j in p.missing else c for j, c in enumerate(p.codes))
 
 
 def _interval(feature: Any, low: float, high: float) -> str:

@@ -41,68 +41,25 @@ from __future__ import annotations
 
 import bisect
 import math
-import operator
-from collections.abc import Callable, Iterable, Sequence
-from dataclasses import dataclass
-from itertools import combinations
+from collections.abc import Iterable, Sequence
 
 from homecog.knowledge.cuts import best_cut, loo_loss
+from homecog.knowledge.keys import Atom, Decision, Key, Recent, cell_of, keys_of, sign_of
 
-Atom = object
 #: the fewest examples a cell of a key with fewer atoms must hold to answer for an empty one
 BACKOFF = 5
-Key = tuple[int, ...]
-Recent = tuple[Atom, ...]  # the recent past's atoms of an example, in order
 
 
-def _keys(n_atoms: int, order: int, *, recent: bool, n_recent: int) -> list[Key]:
-    """The keys a learner weighs. Of the context's atoms and the shared answer (the last atom):
-    every key of up to two, and of three or more only with the shared answer among them (the
-    shared knowledge refined by two features). With ``recent``, after them, each of the
-    ``n_recent`` atoms of the recent past: alone, beside one context atom, and beside the shared
-    answer — a sequence refines a snapshot, it does not replace it.
+def kt_share(counts: Sequence[int] | None) -> float:
+    """A cell's estimate of the share of wanted examples, with half an example of each label
+    added (the Krichevsky–Trofimov estimator): ½ for a cell without examples.
 
-    >>> _keys(3, 2, recent=True, n_recent=1)  # one context atom (0), one recent (1), the shared (2)
-    [(), (0,), (2,), (0, 2), (1,), (0, 1), (1, 2)]
+    >>> kt_share(None), kt_share([3, 0, 1]), kt_share([0, 1, 0])
+    (0.5, 0.875, 0.25)
     """
-    shared = n_atoms - 1
-    context = [*range(n_atoms - 1 - n_recent), shared]
-    keys = [k for r in range(order + 1) for k in combinations(context, r) if r <= 2 or shared in k]
-    for j in range(n_atoms - 1 - n_recent, shared) if recent else ():
-        keys += [(j,), *((c, j) for c in context[:-1]), (j, shared)]
-    return keys
-
-
-def _cell_of(key: Key) -> Callable[[tuple[Atom, ...]], tuple[Atom, ...]]:
-    """A function from atoms to a key's cell."""
-    if not key:
-        return lambda atoms: ()
-    if len(key) == 1:
-        k = key[0]
-        return lambda atoms: (atoms[k],)
-    return operator.itemgetter(*key)  # type: ignore[return-value]
-
-
-def _sign(share: float, threshold: float, last: int) -> int:
-    """An answer from a share of wanted examples: above the threshold propose, below it reject,
-    on a tie the latest example (the user's latest word)."""
-    if abs(share - threshold) <= 1e-9:
-        return 1 if last else -1
-    return 1 if share > threshold else -1
-
-
-@dataclass
-class Decision:
-    """A learner's answer at a context: +1 propose, −1 reject, 0 (no evidence) leave it to the
-    shared tree; the key that answered, its cell, and the wanted and unwanted examples in it."""
-
-    sign: int
-    key: Key
-    cell: tuple[Atom, ...]
-    wanted: int
-    unwanted: int
-    threshold: float = 0.5
-    share: float = 0.5  # the estimated share of wanted examples, drawn toward the sub-keys'
+    if counts is None:
+        return 0.5
+    return (counts[0] + 0.5) / (counts[0] + counts[1] + 1)
 
 
 class ServiceLearner:
@@ -138,7 +95,7 @@ class ServiceLearner:
         self._unknown = ("unknown",) * n_recent
         # the recent past's keys join at the first example that knows it (until then every
         # such key would only repeat its sub-keys' counts)
-        self.keys = _keys(n_atoms, order, recent=False, n_recent=n_recent)
+        self.keys = keys_of(n_atoms, order, recent=False, n_recent=n_recent)
         self._recent_on = False
         self.cuts: dict[int, tuple[float, ...]] = dict(numeric)
         # per example: readings, codes, wanted, the shared answer, the caller's id, recent atoms
@@ -151,6 +108,10 @@ class ServiceLearner:
         # its leave-one-out loss
         self._tables: list[dict[tuple[Atom, ...], list[int]]] = []
         self._loo: list[float] = []
+        # per key, in a stream: its prequential log loss (each example predicted by the cell's
+        # examples before it), and the keys' posterior weights made from it (None: made again)
+        self._preq: list[float] = []
+        self._posterior: dict[bool, list[tuple[int, float]]] | None = None
         self._index_keys()
         self._best: int | None = None  # the best key's position, and every key's loss rounded
         self._rounded: list[float] = []
@@ -161,25 +122,38 @@ class ServiceLearner:
         """Tables for keys new in ``self.keys``, and what is derived from the keys."""
         self._tables += [{} for _ in range(len(self.keys) - len(self._tables))]
         self._loo += [0.0] * (len(self.keys) - len(self._loo))
-        self._cell = [_cell_of(k) for k in self.keys]
+        self._preq += [0.0] * (len(self.keys) - len(self._preq))
+        self._cell = [cell_of(k) for k in self.keys]
         self._index = {k: i for i, k in enumerate(self.keys)}
         # per key, its keys with one atom less
         self._subs = [[self._index[k[:m] + k[m + 1 :]] for m in range(len(k))] for k in self.keys]
         shared_atom = self.n_atoms - 1
         self._shared_keys = [i for i, k in enumerate(self.keys) if shared_atom in k]
+        recents = range(self.n_atoms - 1 - self.n_recent, shared_atom)
+        self._recent_keys = {i for i, k in enumerate(self.keys) if any(j in recents for j in k)}
         self._shared_subs = [[j for j in subs if shared_atom in self.keys[j]] for subs in self._subs]
         self._prior_rank = [(-len(self.prior.intersection(k)), len(set(k) - self.prior)) for k in self.keys]
 
     def _start_recent(self) -> None:
         """The recent past's keys join, with every example so far counted in them."""
         start = len(self.keys)
-        self.keys = _keys(self.n_atoms, self.order, recent=True, n_recent=self.n_recent)
+        self.keys = keys_of(self.n_atoms, self.order, recent=True, n_recent=self.n_recent)
         self._recent_on = True
         self._index_keys()
         new = range(start, len(self.keys))
         shared = [i for i in new if i in set(self._shared_keys)]
         for e, atoms in enumerate(self._atoms):
             self._count(atoms, self._examples[e][2], shared if self._partials[e] else new, self._weights[e])
+
+    @property
+    def streaming(self) -> bool:
+        """Whether the learner learns a stream: its examples know the recent past and each says
+        whether the service was wanted (none partial). A stream of whole examples — a
+        household's event log — stands on its own: keys are judged by how each predicted every
+        example before it was counted, and averaged by that (:meth:`posterior`). Partial
+        examples — a person's hands, mostly "wanted" — only refine the shared knowledge, by the
+        leave-one-out choice of a key that holds the shared answer."""
+        return self._recent_on and not self._partial
 
     @property
     def n_examples(self) -> int:
@@ -189,11 +163,14 @@ class ServiceLearner:
         self, readings: Sequence[float | None], codes: Sequence[int], shared: bool, recent: Recent = ()
     ) -> tuple[Atom, ...]:
         """An example's atoms: codes, numeric readings as intervals between cuts, the recent
-        past's atoms (``unknown`` where not given), the prior."""
+        past's atoms (``unknown`` where not given), the prior; a code below 0 is a missing
+        reading, ``unknown``."""
         out: list[Atom] = []
         for j in range(self.n_atoms - 1 - self.n_recent):
             cuts = self.cuts.get(j)
-            if cuts is None:
+            if codes[j] < 0:  # a missing reading
+                out.append("unknown")
+            elif cuts is None:
                 out.append(codes[j])
             else:
                 r = readings[j]
@@ -234,8 +211,11 @@ class ServiceLearner:
         self._partial |= partial
         atoms = self.atoms(readings, codes, shared, recent)
         self._atoms.append(atoms)
-        self._count(atoms, wanted, self._shared_keys if partial else range(len(self.keys)), weight)
-        self._best = self._backoff = None
+        keys = self._shared_keys if partial else range(len(self.keys))
+        if self.streaming:
+            self._score(atoms, wanted, keys, weight)
+        self._count(atoms, wanted, keys, weight)
+        self._best = self._backoff = self._posterior = None
         n = len(self._examples)
         if n >= self._next_cut:
             self._next_cut = max(n + 8, 2 * n)
@@ -261,6 +241,14 @@ class ServiceLearner:
                 del table[cell]
             loo[i] += loo_loss(counts[0], counts[1]) - before
 
+    def _score(self, atoms: tuple[Atom, ...], wanted: bool, keys: Iterable[int], weight: int) -> None:
+        """Every key's loss on an example before it is counted: how well its cell predicted it."""
+        preq, tables, cell_of = self._preq, self._tables, self._cell
+        for i in keys:
+            counts = tables[i].get(cell_of[i](atoms))
+            q = kt_share(counts) if wanted else 1.0 - kt_share(counts)
+            preq[i] -= weight * math.log(q)
+
     def _recut(self) -> None:
         """Choose the thresholds again; the examples whose interval moved change cells."""
         moved = []
@@ -284,10 +272,11 @@ class ServiceLearner:
                 self._atoms[e] = atoms
 
     def best_key(self) -> Key:
-        """The key with the least leave-one-out loss (ties: more atoms of the prior, fewer
-        others, then the first)."""
+        """The key with the least leave-one-out loss — in a stream, the least prequential loss —
+        (ties: more atoms of the prior, fewer others, then the first)."""
         if self._best is None:
-            rounded = self._rounded = [round(loss, 6) for loss in self._loo]
+            losses = self._preq if self.streaming else self._loo
+            rounded = self._rounded = [round(loss, 6) for loss in losses]
             candidates = self._shared_keys if self._partial else range(len(self.keys))
             least = min(rounded[i] for i in candidates)
             tied = (i for i in candidates if rounded[i] == least)
@@ -314,6 +303,8 @@ class ServiceLearner:
         example, the next key of the chain whose cell holds at least BACKOFF examples answers;
         where none does, the evidence says nothing (0) and the shared tree answers."""
         atoms = self.atoms(readings, codes, shared, recent)
+        if self.streaming:
+            return self._mixed(atoms, threshold, snapshot=not recent)
         chain = self.backoff()
         for depth, key in enumerate(chain):
             cell = tuple(atoms[k] for k in key)
@@ -324,7 +315,35 @@ class ServiceLearner:
             return Decision(0, chain[0], (), 0, 0, threshold)
         p, n, last = counts
         share = p / (p + n)
-        return Decision(_sign(share, threshold, last), key, cell, p, n, threshold, share)
+        return Decision(sign_of(share, threshold, last), key, cell, p, n, threshold, share)
+
+    def posterior(self, *, snapshot: bool = False) -> list[tuple[int, float]]:
+        """In a stream: the keys' weights, each ``exp(−prequential loss)`` normalized (Bayes'
+        rule over the keys, each a model of the stream), those below 10⁻⁶ left out; for a
+        ``snapshot`` (a context without its recent past) the keys of the context alone."""
+        if self._posterior is None:
+            self._posterior = {}
+        if snapshot not in self._posterior:
+            candidates = [i for i in range(len(self.keys)) if not (snapshot and i in self._recent_keys)]
+            least = min(self._preq[i] for i in candidates)
+            weights = [(i, math.exp(least - self._preq[i])) for i in candidates]
+            total = sum(w for _, w in weights)
+            self._posterior[snapshot] = [(i, w / total) for i, w in weights if w / total >= 1e-6]
+        return self._posterior[snapshot]
+
+    def _mixed(self, atoms: tuple[Atom, ...], threshold: float, *, snapshot: bool) -> Decision:
+        """In a stream: the probability that the service is wanted, averaged over the keys by
+        their posterior weights, each key saying its cell's share (with half an example of each
+        label, so a cell it has never seen says ½: something new is happening); the key of the
+        most weight and its cell explain it."""
+        tables, cell_of = self._tables, self._cell
+        posterior = self.posterior(snapshot=snapshot)
+        share = sum(w * kt_share(tables[i].get(cell_of[i](atoms))) for i, w in posterior)
+        i = max(posterior, key=lambda iw: iw[1])[0]
+        key = self.keys[i]
+        cell = cell_of[i](atoms)
+        p, n, last = tables[i].get(cell, (0, 0, 0))
+        return Decision(sign_of(share, threshold, last), key, cell, p, n, threshold, share)
 
     def backoff(self) -> list[Key]:
         """The best key, then the best of its keys with one atom less, and so on to the empty key
@@ -362,7 +381,7 @@ class ServiceLearner:
             lower = cuts[i - 1] if i else -math.inf
             cell = (*decision.cell[:pos], lower, *decision.cell[pos + 1 :])
             p, n, last = table.get(cell, (0, 0, 0))
-            return p + n > 0 and _sign(p / (p + n), decision.threshold, last) == decision.sign
+            return p + n > 0 and sign_of(p / (p + n), decision.threshold, last) == decision.sign
 
         low, high = k, k
         while low > 0 and same(low - 1):

@@ -22,6 +22,7 @@ import numpy as np
 
 from homecog.home.codec import Space
 from homecog.home.model import Home
+from homecog.home.recent import Recent
 from homecog.knowledge import sample_log
 from homecog.knowledge.corrections import Example
 from homecog.knowledge.model import Cluster, Numeric
@@ -75,6 +76,8 @@ def example_from_payload(home: Home, payload: dict[str, Any]) -> Example:
         want=frozenset(home.service_index(s) for s in payload["want"]),
         concerns=None if concerns is None else frozenset(home.service_index(s) for s in concerns),
         weight=int(payload.get("weight", 1)),
+        recent=None if payload.get("recent") is None else Recent.from_dict(payload["recent"]),
+        missing=frozenset(payload.get("missing", ())),
     )
 
 

@@ -10,6 +10,8 @@ They give the same answers (tests check it).
 
 from __future__ import annotations
 
+import itertools
+import math
 import operator
 from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any
@@ -17,11 +19,14 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from homecog.home.clock import format_clock
-from homecog.home.codec import Point
+from homecog.home.codec import Point, bin_reading
 from homecog.home.model import format_number
 from homecog.knowledge.group_index import LIMIT_BYTES as GROUP_INDEX_BYTES
 from homecog.knowledge.group_index import GroupIndex
 from homecog.knowledge.model import Cluster, Cognition, Condition, Explanation, Node, Numeric
+
+#: the most completions of a context's missing readings the shared tree is asked at
+COMPLETIONS = 64
 
 if TYPE_CHECKING:
     from homecog.home.codec import Space
@@ -88,7 +93,7 @@ class TreeSearch:
     def _search(self, p: Point, user: str | None) -> tuple[list[tuple[Node, Cluster]], bool]:
         """Algorithm 3: the service nodes whose clusters respond, and whether Idle responded;
         then the user's evidence over them. A service that would change nothing is left out."""
-        hits, idle = self._shared_search(p)
+        hits, idle = self._shared_search_missing(p) if p.missing else self._shared_search(p)
         changes = self._layers.changes
         if any(not changes(node.service, p.codes) for node, _ in hits):
             hits = [(node, c) for node, c in hits if changes(node.service, p.codes)]
@@ -105,6 +110,30 @@ class TreeSearch:
         if len(chosen) == len(hits) and all(chosen.get(n.service, (n, None))[1] is c for n, c in hits):
             return hits, idle
         return self._ordered([chosen[a] for a in sorted(chosen)]), idle
+
+    def _shared_search_missing(self, p: Point) -> tuple[list[tuple[Node, Cluster]], bool]:
+        """The shared answer where readings are missing: the services the tree proposes
+        whatever they are — at every completion of the missing features by one of their bins
+        (a reading inside it) or values, at most :data:`COMPLETIONS` of them; beyond, none.
+        Known (not unknown) where every completion is."""
+        features = self.home.features
+        axes = [range(len(features[j].values)) for j in sorted(p.missing)]
+        if math.prod(len(a) for a in axes) > COMPLETIONS:
+            return [], False
+        common: dict[int, tuple[Node, Cluster]] | None = None
+        known = True
+        for combo in itertools.product(*axes):
+            codes, readings = list(p.codes), list(p.readings)
+            for j, k in zip(sorted(p.missing), combo, strict=True):
+                codes[j] = k
+                bins = features[j].bins
+                readings[j] = None if bins is None else bin_reading(bins[k])
+            hits, idle = self._shared_search(Point(tuple(codes), tuple(readings)))
+            known &= idle or bool(hits)
+            found = {node.service: (node, c) for node, c in hits}
+            common = found if common is None else {a: h for a, h in common.items() if a in found}
+        chosen = list((common or {}).values())
+        return self._ordered(chosen), known
 
     def _shared_search(self, p: Point) -> tuple[list[tuple[Node, Cluster]], bool]:
         hits: list[tuple[Node, Cluster]] = []

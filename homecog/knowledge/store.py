@@ -366,6 +366,7 @@ class Store(StoreLog):
                     "codes": list(point.codes),
                     "readings": list(point.readings),
                     **({"recent": point.recent.as_dict()} if point.recent is not None else {}),
+                    **({"missing": sorted(point.missing)} if point.missing else {}),
                     "want": want,
                     "added": added,
                     "rejected": rejected,

@@ -175,6 +175,7 @@ def replay(tree: IHDRTree, kind: str, user: str | None, payload: dict[str, Any])
         codes=tuple(payload["codes"]),
         readings=tuple(payload["readings"]),
         recent=None if recent is None else Recent.from_dict(recent),
+        missing=frozenset(payload.get("missing", ())),
     )
     if kind == "correction":
         tree.correct_one(
