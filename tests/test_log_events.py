@@ -388,3 +388,28 @@ def test_a_broken_house_file_names_file_and_line(tmp_path: Path, capsys: pytest.
         f"homecog: error: {tmp_path / 'houseA-ss.txt'}: line 2: '25-Fbr-2008 09:37:20' is not a time "
         "DD-Mon-YYYY HH:MM:SS\n"
     )
+
+
+def test_several_rooms_live_at_once_are_the_value_the_home_names_for_it(tmp_path: Path) -> None:
+    text = STUDIO_LOG.read_text().replace(
+        "values: [desk, bed, unknown]", "values: [desk, bed, both, unknown]"
+    )
+    text = text.replace("hold: 30}", "hold: 30, several: both}")
+    home = load_home_text(text, "studio_several.yaml")
+    log = tmp_path / "log.csv"
+    log.write_text(
+        "timestamp,entity,state\n"
+        "2024-03-01T06:00:00,x10.blind,closed\n2024-03-01T06:00:00,x10.lamp,off\n"
+        "2024-03-01T06:00:00,x10.radio,off\n2024-03-01T06:00:00,sensor.lux,20\n"
+        "2024-03-01T06:00:00,activity,Sleeping\n2024-03-01T06:00:00,mat_bed,on\n"
+        "2024-03-01T06:20:00,pir_desk,on\n"  # someone at the desk while someone is in bed
+        "2024-03-01T06:30:00,mat_bed,off\n"  # the bed's hold runs on 30 minutes: still both
+        "2024-03-01T06:45:00,pir_desk,on\n"  # motion again: the desk holds until 07:15
+        "2024-03-01T07:05:00,x10.radio,on\n"  # the bed's hold ended at 07:00: the desk alone
+    )
+    convert_log(home, log, tmp_path / "events.csv", quiet=0)
+    locations = [line.split(",")[4] for line in (tmp_path / "events.csv").read_text().splitlines()[1:]]
+    assert locations == ["bed", "both", "desk", "desk"]  # 06:00, 06:20, 07:00, the radio at 07:05
+    wrong = text.replace("several: both", "several: hall")
+    with pytest.raises(HomeFileError, match=r"log\.features\.location\.several: unknown value 'hall'"):
+        load_home_text(wrong, "studio_several.yaml")

@@ -105,12 +105,16 @@ class Presence:
     ('bed', datetime.datetime(2024, 3, 1, 7, 9))
     >>> p.expire(at(9)); p.value
     'unknown'
+    >>> both = Presence("location", {"pir_bed": "bed", "pir_desk": "desk"}, 5, "unknown", several="both")
+    >>> both.fire("pir_bed", True, at(0)); both.fire("pir_desk", True, at(1)); both.value
+    'both'
     """
 
     feature: str
     rooms: Mapping[str, str]
     hold: float  # minutes
     unknown: str | None  # the value with no entity live; None: the last room stays
+    several: str | None = None  # the value while live entities are in several rooms; None: the latest
     value: str | None = None
     until: dict[str, datetime] = field(default_factory=dict)  # live entities: until when
     turned_on: dict[str, int] = field(default_factory=dict)  # entity: the order it last turned on
@@ -146,7 +150,9 @@ class Presence:
             self._update()
 
     def _update(self) -> None:
-        if self.until:
+        if self.several is not None and len({self.rooms[e] for e in self.until}) > 1:
+            self.value = self.several
+        elif self.until:
             self.value = self.rooms[max(self.until, key=self.turned_on.__getitem__)]
         elif self.unknown is not None:
             self.value = self.unknown

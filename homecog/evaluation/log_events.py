@@ -234,7 +234,7 @@ def readers_of(home: Home, mapping: LogMap) -> tuple[dict[str, list[Reader]], li
     for p in mapping.presence:
         values = home.feature(p.feature).values
         presence.append(
-            Presence(p.feature, dict(p.rooms), p.hold, "unknown" if "unknown" in values else None)
+            Presence(p.feature, dict(p.rooms), p.hold, "unknown" if "unknown" in values else None, p.several)
         )
         for entity, _ in p.rooms:
             words = LogDevice(p.feature, entity, p.on, p.off)

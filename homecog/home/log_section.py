@@ -14,12 +14,15 @@ features and devices, and how their states read (``homecog log events``).
         location:                     # the room of the latest presence entity that turned on
           presence: {motion.kitchen: kitchen, pir_bath: bathroom}
           hold: 30                    # minutes it holds after the entity turns off
+          several: several            # optional: the value while entities of two rooms are live
 
 An entity is any non-empty name the log uses. Every feature but the clock ones, and every
 device, must be mapped. A presence entity is on at one of its ``on`` states (default ``on``) and
 off at one of ``off`` (default ``off``); from when it turns on until ``hold`` minutes after it
 last turned on or off it is *live*, and the feature is the room of the live entity that turned
-on last; with none live it is ``unknown`` where the feature has that value, else the last room.
+on last — or, with ``several`` (a value of the feature), that value while live entities are in
+more than one room (a household in several rooms at once); with none live it is ``unknown``
+where the feature has that value, else the last room.
 The entity of a device may not serve as presence: what the robot is to predict must not say
 where the user is. Mapping entities does not change what the robot learns, so the section is not part
 of the home's content hash.
@@ -88,6 +91,7 @@ class LogPresence:
     hold: float = HOLD  # minutes
     on: tuple[str, ...] = ("on",)
     off: tuple[str, ...] = ("off",)
+    several: str | None = None  # the value while entities of several rooms are live
 
 
 @dataclass(frozen=True)
@@ -258,7 +262,7 @@ def _value(feature: Feature, value: object, path: str, fail: Fail) -> str:
 def _presence(
     feature: Feature, spec: dict[str, Any], path: str, devices: dict[str, str], fail: Fail
 ) -> LogPresence:
-    _keys(spec, path, ("presence", "hold", "on", "off"), fail)
+    _keys(spec, path, ("presence", "hold", "on", "off", "several"), fail)
     if feature.kind != "categorical":
         raise fail(
             f"{path}.presence",
@@ -276,7 +280,10 @@ def _presence(
         raise fail(f"{path}.presence", "is empty; expected at least one entity and its room")
     hold = _minutes(spec.get("hold", HOLD), f"{path}.hold", fail, positive=True)
     on, off = _on_off(spec, path, fail)
-    return LogPresence(feature=feature.name, rooms=tuple(rooms), hold=hold, on=on, off=off)
+    several = spec.get("several")
+    if several is not None:
+        several = _value(feature, several, f"{path}.several", fail)
+    return LogPresence(feature=feature.name, rooms=tuple(rooms), hold=hold, on=on, off=off, several=several)
 
 
 def _kind(value: object) -> str:
