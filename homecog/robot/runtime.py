@@ -44,6 +44,7 @@ from homecog.robot.guidance import QUIET_SITUATION, Guidance
 from homecog.robot.holds import Holds, situation
 from homecog.robot.journal import Journal
 from homecog.robot.moments import Moments
+from homecog.simulation.bodies import Preview
 
 log = logging.getLogger("homecog.robot")
 #: what the household's hands taught: switches, undos, situations lived with the devices as left
@@ -66,6 +67,8 @@ class Runtime:
     watchers: list[Callable[[dict[str, str]], object]] = field(default_factory=list)
     after_tick: list[Callable[[], object]] = field(default_factory=list)
     """Called after every :meth:`tick` (a simulated household taking its turn)."""
+    robot: str = "builtin"
+    """The robot's body in the simulated home (:data:`homecog.simulation.bodies.BODIES`)."""
 
     def __post_init__(self) -> None:
         self.household = self.household or self.home.household
@@ -75,7 +78,7 @@ class Runtime:
         self.holds = Holds(self.home, hold=self.household.hold)
         self.journal = Journal()
         self.guidance = Guidance(self.home, self.household, self.journal, self._learn)
-        body = isinstance(self.source, SimulatedHome) and self.home.layout is not None
+        body = self.robot if isinstance(self.source, SimulatedHome) and self.home.layout is not None else None
         self.actor = Actor(
             self.home,
             self.source,
@@ -87,6 +90,7 @@ class Runtime:
         self.household_switches = 0  # device changes by people (and automations) seen
         self._situation: tuple[float, dict[str, str] | None] = (0.0, None)  # since, latest context
         self._acting = threading.RLock()  # the robot acts, or an action is undone: one at a time
+        self.preview = Preview(self.home, self.robot)  # the HMI's plans, beside the acting body
         self.moments = Moments(self.home, self.source.clock, simulated=isinstance(self.source, SimulatedHome))
         self.source.listen(self._changed)
 
@@ -164,14 +168,13 @@ class Runtime:
 
     def plan(self, services: list[str], context: Mapping[str, object] | None) -> dict[str, Any]:
         """The services decomposed into robot actions, in the given order, and the plan carried
-        out by the simulated robot on the floor plan: its timeline, time, distance and
+        out by a robot of the runtime's body on the floor plan: its timeline, time, distance and
         trajectory (``[t, x, y]`` rows, at most 400). :class:`PlanningError` when it cannot be."""
         from homecog.planning import plan_services
-        from homecog.simulation import simulate
 
         where = dict(self.space.context(self.space.point(context))) if context else None
         result = plan_services(self.home, services, context=where)
-        sim = simulate(self.home, result.actions, state=result.start)
+        sim = self.preview.run(result)
         simulation = sim.as_dict()
         del simulation["actions"]  # the same as the plan's
         simulation["trajectory"] = _thin(sim.trajectory, 400)
