@@ -59,8 +59,9 @@ def require_pyrobosim() -> Any:
         import pyrobosim.navigation  # noqa: F401  registers the path planners by name
         from pyrobosim.core import WorldYamlLoader
     except ImportError as e:
+        missing = (e.name or "pyrobosim").split(".")[0]
         raise DependencyNotInstalledError(
-            f"the pyrobosim body needs pyrobosim, which is not installed ({e.name}): {INSTALL}"
+            f"the pyrobosim body needs the [pyrobosim] extra, and {missing} cannot be imported: {INSTALL}"
         ) from None
     return WorldYamlLoader
 
@@ -112,6 +113,7 @@ class PyRoboSimBody(Body):
         for logger in (self.world.logger, *(r.logger for r in self.world.robots)):
             logger.setLevel(_QUIET)
         self.robot = self.world.robots[0]
+        self.planning_seconds = 0.0  # the wall time pyrobosim's path planner took, all runs
         self.simulation: Simulation
         self.start(world if world is not None else initial_state(home))
 
@@ -164,7 +166,14 @@ class PyRoboSimBody(Body):
         def navigate() -> tuple[Outcome, np.ndarray | None]:
             if self._place() == target:
                 return Outcome.done(), None  # there already: nothing to drive
-            answer = self.robot.navigate(goal=target, realtime_factor=-1.0)
+            try:  # planned apart from following: some planners raise where they find no path
+                path = self.robot.plan_path(goal=target)
+            except Exception:
+                path = None
+            if path is None or path.num_poses < 2:
+                return Outcome.failed(f"pyrobosim: Failed to plan a path to {target!r}."), None
+            self.planning_seconds += path.planning_time
+            answer = self.robot.navigate(path=path, realtime_factor=-1.0)
             if not answer.is_success():
                 return Outcome.failed(f"pyrobosim: {answer.message or answer.status.name}"), None
             return Outcome.done(), self._poses()

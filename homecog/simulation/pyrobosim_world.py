@@ -5,8 +5,10 @@ open it.
 ==================  ===================================================================
 homecog             pyrobosim
 ==================  ===================================================================
-room                a room: its rectangle as a polygon, inset by half a wall, walls of
-                    half a wall's thickness (two rooms side by side make one wall)
+room                a room: its rectangle as a polygon, inset by half a wall (the robot
+                    keeps as far off a wall as in homecog's own simulator), walls a
+                    quarter of a wall thick (the middle of a wall between two rooms is
+                    the door's hallway, so that pyrobosim can close a door)
 door                a hallway between the rooms on either side, as wide as the door,
                     straight through it
 place               a location of its own category: a square of :data:`PLACE_SIZE`
@@ -63,6 +65,9 @@ PLANNERS: dict[str, dict[str, Any]] = {
 }
 """pyrobosim's path planners by name, with the settings the world gives each."""
 _HALF = WALL_THICKNESS / 2
+# pyrobosim draws a room's walls outside its polygon; a quarter of a wall on each side leaves
+# the middle of a wall between two rooms to the door's hallway, so that a door can be closed
+_WALL = WALL_THICKNESS / 4
 _SIDES = 4  # navigation poses tried around a place: its square's sides (its inflated corners are square)
 
 
@@ -152,7 +157,7 @@ def pyrobosim_world(home: Home, *, robot: DiffDrive | None = None, planner: str 
             {
                 "name": name,
                 "footprint": {"type": "polygon", "coords": _corners(rect)},
-                "wall_width": _HALF,
+                "wall_width": _WALL,
                 "nav_poses": [{"position": {"x": round((x0 + x1) / 2, 6), "y": round((y0 + y1) / 2, 6)}}],
             }
             for name, rect in rooms.items()
@@ -250,7 +255,7 @@ def _hallways(layout: Layout, rooms: dict[str, Rect], radius: float) -> list[dic
                 "room_start": before,
                 "room_end": after,
                 "width": round(abs(x1 - x0) + abs(y1 - y0), 6),
-                "wall_width": _HALF,
+                "wall_width": _WALL,
                 "conn_method": "points",
                 "conn_points": points,
             }
