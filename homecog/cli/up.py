@@ -198,6 +198,12 @@ def up(
                 f"the simulated home on {publish}: states to homecog/{h.name}/state/<name>, "
                 f"commands from homecog/{h.name}/command/<device>"
             )
+        broker = mqtt or publish
+        if broker is not None:  # the robot and the home in Home Assistant, gone when it stops
+            from homecog.robot.announce import announce
+
+            stack.callback(announce(runtime, broker).start().stop)
+            say(f"in Home Assistant by MQTT discovery on {broker}: the robot's services, last action, undo")
         say(f"knowledge: {redact(store.url)} ({store.experience_count():,} experiences)", style="dim")
         say(f"homecog is up: http://{host if ':' not in host else f'[{host}]'}:{port}")
         live = speed if mqtt is None and home_assistant is None else 1.0  # a real home's own clock

@@ -110,7 +110,11 @@ class PyRoboSimBody(Body):
         self._rooms = _rooms(self.layout)  # type: ignore[arg-type]
         with tempfile.TemporaryDirectory(prefix="homecog-pyrobosim-") as folder, _quiet():
             self.world = loader().from_file(spec.write(Path(folder) / "world.yaml")[0])
-        for logger in (self.world.logger, *(r.logger for r in self.world.robots)):
+        for logger in (
+            logging.getLogger("pyrobosim"),
+            self.world.logger,
+            *(r.logger for r in self.world.robots),
+        ):
             logger.setLevel(_QUIET)
         self.robot = self.world.robots[0]
         self.planning_seconds = 0.0  # the wall time pyrobosim's path planner took, all runs
