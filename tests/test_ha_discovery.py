@@ -12,7 +12,6 @@ learned, are measured and printed (``bin/bench discovery`` for the figures).
 
 from __future__ import annotations
 
-import asyncio
 import dataclasses
 import json
 import os
@@ -26,11 +25,10 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-import aiohttp
 import paho.mqtt.client as mqtt
 import pytest
 from brokers import mqtt_broker
-from home_assistant import HomeAssistant, running_home_assistant
+from home_assistant import HomeAssistant, StateChanges, enable_mqtt, running_home_assistant
 from paho.mqtt.enums import CallbackAPIVersion
 
 from homecog.context.ha_discovery import HomeAssistantDiscovery
@@ -68,73 +66,6 @@ def wait(condition: Callable[[], object], what: str, timeout: float = TIMEOUT) -
 def percentile95(values: list[float]) -> float:
     ordered = sorted(values)
     return ordered[min(len(ordered) - 1, round(0.95 * (len(ordered) - 1)))]
-
-
-class StateChanges:
-    """Home Assistant's ``state_changed`` events, as they reach this process, each with the
-    moment it arrived (``time.perf_counter``): over a WebSocket of an administrator's token."""
-
-    def __init__(self, server: HomeAssistant, token: str) -> None:
-        self.server, self.token = server, token
-        self.events: list[tuple[float, str, dict[str, Any] | None]] = []
-        self._lock = threading.Lock()
-        self._ready = threading.Event()
-        self._loop: asyncio.AbstractEventLoop | None = None
-        self._task: asyncio.Task[None] | None = None
-        self._thread = threading.Thread(target=lambda: asyncio.run(self._follow()), daemon=True)
-
-    def __enter__(self) -> StateChanges:
-        self._thread.start()
-        assert self._ready.wait(TIMEOUT), "could not follow Home Assistant's state changes"
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        if self._loop is not None and self._task is not None and not self._loop.is_closed():
-            self._loop.call_soon_threadsafe(self._task.cancel)
-        self._thread.join(10)
-
-    def of(self, entity: str, since: int = 0) -> list[tuple[float, dict[str, Any] | None]]:
-        with self._lock:
-            return [(t, s) for t, e, s in self.events[since:] if e == entity]
-
-    def count(self) -> int:
-        with self._lock:
-            return len(self.events)
-
-    async def _follow(self) -> None:
-        self._loop, self._task = asyncio.get_running_loop(), asyncio.current_task()
-        try:
-            async with (
-                aiohttp.ClientSession() as session,
-                session.ws_connect(f"{self.server.url}/api/websocket") as ws,
-            ):
-                await ws.receive_json()
-                await ws.send_json({"type": "auth", "access_token": self.token})
-                assert (await ws.receive_json())["type"] == "auth_ok"
-                await ws.send_json({"id": 1, "type": "subscribe_events", "event_type": "state_changed"})
-                assert (await ws.receive_json())["success"]
-                self._ready.set()
-                async for message in ws:
-                    data = (json.loads(message.data).get("event") or {}).get("data") or {}
-                    with self._lock:
-                        self.events.append(
-                            (time.perf_counter(), data.get("entity_id"), data.get("new_state"))
-                        )
-        except asyncio.CancelledError:
-            pass
-
-
-def enable_mqtt(server: HomeAssistant, url: str) -> None:
-    """Home Assistant's MQTT integration on the broker, set up as a person does in its app."""
-    address = parse_url(url)
-    flow = server.post("/api/config/config_entries/flow", {"handler": "mqtt"}, server.owner_token)
-    assert flow["step_id"] == "broker", flow
-    done = server.post(
-        f"/api/config/config_entries/flow/{flow['flow_id']}",
-        {"broker": address.host, "port": address.port},
-        server.owner_token,
-    )
-    assert done["type"] == "create_entry", done
 
 
 @dataclass
