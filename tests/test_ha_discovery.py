@@ -1,4 +1,4 @@
-"""homecog in Home Assistant by MQTT discovery (SPEC §7.1, §15), against the real Home Assistant
+"""homecog in Home Assistant by MQTT discovery, against the real Home Assistant
 2024.3.3 with its MQTT integration on the real Mosquitto broker: the entities appear there with
 the robot's state (its services, what it did last), the home's devices as switches, pressing
 undo there undoes the robot's last action (learned as a rejection), a switch from the app is a

@@ -1,18 +1,16 @@
-"""pyrobosim as the robot's body (SPEC §15): the home's floor plan exported as a pyrobosim world
+"""pyrobosim as the robot's body: the home's floor plan exported as a pyrobosim world
 and opened by pyrobosim's own loader, the paper's plan carried out there with its path planner,
 a failed action planned again, the run reported, drawn and written as a ROS 2 bag as the
 built-in body's is, and the same answers from both bodies where an action does not apply.
 
 pyrobosim is the ``[pyrobosim]`` extra (``.ci/pyrobosim.sh`` installs it into the test venv);
-where it is missing these tests skip, saying why, except the one that checks what a user
-without it is told.
+where it is missing these tests skip, saying why (what a user without it is told, and what
+needs no pyrobosim, is tests/test_bodies.py's).
 """
 
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
 from pathlib import Path
 
 import pytest
@@ -98,22 +96,6 @@ def test_export_says_what_it_wrote(tmp_path: Path, capsys: pytest.CaptureFixture
     ]
     world = WorldYamlLoader().from_file(out)
     assert type(world.robots[0].path_planner).__name__ == "RRTPlanner"
-
-
-def test_export_refuses_a_home_without_a_floor_plan_and_an_unknown_planner(
-    tmp_path: Path, capsys: pytest.CaptureFixture[str]
-) -> None:
-    studio = str(Path(__file__).parent / "homes" / "studio.yaml")
-    assert main(["export", "pyrobosim", "--home", studio, "--out", str(tmp_path / "w.yaml")]) == 2
-    assert capsys.readouterr().err == (
-        "homecog: error: home 'studio' has no layout; a pyrobosim world needs the floor plan\n"
-    )
-    assert main(["export", "pyrobosim", "--out", str(tmp_path / "w.yaml"), "--planner", "dijkstra"]) == 2
-    assert capsys.readouterr().err == (
-        "homecog: error: --planner: unknown path planner 'dijkstra'; "
-        "expected one of astar, rrt, prm, world_graph\n"
-    )
-    assert not (tmp_path / "w.yaml").exists()
 
 
 # -- carrying plans out ------------------------------------------------------------------------------
@@ -256,28 +238,6 @@ def test_the_builtin_body_reports_itself(capsys: pytest.CaptureFixture[str]) -> 
     assert main(["simulate", "--services", "ChargeItSelf", "--json"]) == 0
     robot = json.loads(capsys.readouterr().out)["robot"]
     assert robot == {"body": "builtin", "planner": "astar", "achieved": True, "replans": 0, "failures": []}
-
-
-def test_without_the_extra_one_line_says_how_to_install_it() -> None:
-    """pyrobosim made unimportable, as where the extra is not installed: simulate and up say so
-    in one line, exit 2, and up says it before any training."""
-    script = (
-        "import sys; sys.modules['pyrobosim'] = None\n"  # import pyrobosim now raises ImportError
-        "from homecog.cli.main import main\n"
-        "sys.exit(main(sys.argv[1:]))\n"
-    )
-    hint = (
-        "homecog: error: the pyrobosim body needs the [pyrobosim] extra, and pyrobosim cannot be imported: "
-        "pip install 'homecog[pyrobosim]'\n"
-    )
-    for args in (
-        ["simulate", "--services", "ChargeItSelf", "--robot", "pyrobosim"],
-        ["up", "--robot", "pyrobosim", "--port", "1"],
-    ):
-        done = subprocess.run(
-            [sys.executable, "-c", script, *args], capture_output=True, text=True, timeout=60
-        )
-        assert (done.returncode, done.stderr, done.stdout) == (2, hint, "")
 
 
 def test_the_running_robot_acts_with_the_pyrobosim_body(paper: Home) -> None:
