@@ -1,4 +1,4 @@
-"""``homecog export pyrobosim``: a home's floor plan as a world for another simulator (SPEC §15)."""
+"""``homecog export pyrobosim``: a home's floor plan as a world for another simulator."""
 
 from __future__ import annotations
 

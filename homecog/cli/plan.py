@@ -1,5 +1,5 @@
 """``homecog plan`` and ``homecog simulate``: services decomposed into robot actions and carried
-out on the floor plan by a body, homecog's own or pyrobosim (SPEC §8, §13, §15)."""
+out on the floor plan by a body, homecog's own or pyrobosim."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""homecog announced to Home Assistant by MQTT discovery (SPEC §15): the robot and the home's
+"""homecog announced to Home Assistant by MQTT discovery: the robot and the home's
 devices appear in Home Assistant's app without any configuration there, as Zigbee2MQTT's or
 ESPHome's devices do.
 

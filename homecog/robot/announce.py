@@ -1,4 +1,4 @@
-"""The running robot announced to Home Assistant by MQTT discovery (SPEC §7.1, §15): its
+"""The running robot announced to Home Assistant by MQTT discovery: its
 decisions and actions become the state of its entities there
 (:class:`~homecog.context.ha_discovery.HomeAssistantDiscovery`), and the undo button pressed in
 Home Assistant's app undoes its last action as the HMI's undo does — the devices switched back,

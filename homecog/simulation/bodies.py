@@ -1,4 +1,4 @@
-"""The robot's bodies by name, and a plan carried out by one (SPEC §8, §15): what ``homecog
+"""The robot's bodies by name, and a plan carried out by one: what ``homecog
 simulate --robot`` and ``homecog up --robot`` choose between.
 
 ===============  ===================================================================

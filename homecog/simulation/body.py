@@ -1,4 +1,4 @@
-"""The simulated robot's body (SPEC §8, §10, §15): homecog's own 2D simulator behind the body
+"""The simulated robot's body: homecog's own 2D simulator behind the body
 interface (:mod:`homecog.simulation.interface`), whose commands carry a plan's actions out on
 the floor plan, for acting (:mod:`homecog.planning.acting`).
 

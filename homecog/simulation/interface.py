@@ -1,4 +1,4 @@
-"""The robot's body (SPEC §8, §15): one small interface that carries a plan's atomic actions out,
+"""The robot's body: one small interface that carries a plan's atomic actions out,
 whatever simulates (or is) the robot.
 
 A body has one method per atomic action of the planning domain — ``move``, ``pick``, ``pour``,

@@ -1,4 +1,4 @@
-"""pyrobosim as the robot's body (SPEC §15): the plan's actions carried out in a pyrobosim world
+"""pyrobosim as the robot's body: the plan's actions carried out in a pyrobosim world
 made from the home's floor plan (:mod:`homecog.simulation.pyrobosim_world`), with pyrobosim's own
 path planners, navigation, picking and placing.
 

@@ -1,4 +1,4 @@
-"""A home's floor plan as a pyrobosim world (SPEC §15): what ``homecog export pyrobosim`` writes
+"""A home's floor plan as a pyrobosim world: what ``homecog export pyrobosim`` writes
 and what the pyrobosim body loads. Written as plain YAML; pyrobosim itself is needed only to
 open it.
 
