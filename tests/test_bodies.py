@@ -172,3 +172,18 @@ def test_every_discovery_config_has_a_unique_id_a_device_and_availability(paper:
 
 def test_the_services_state_fits_home_assistant() -> None:
     assert services_state(["A" * 300]) == "A" * 254 + "…"
+
+
+def test_the_main_job_never_imports_pyrobosim() -> None:
+    """``homecog up`` and the running robot with homecog's own body start as they did before the
+    extra: nothing of pyrobosim (nor what only it brings) is imported."""
+    script = (
+        "import sys\n"
+        "import homecog.cli.main, homecog.robot.runtime, homecog.web.main, homecog.simulation.bodies\n"
+        "from homecog.home import load_home\n"
+        "from homecog.simulation.bodies import make_body\n"
+        "make_body('builtin', load_home('paper'))\n"
+        "print(sorted(m for m in ('pyrobosim', 'shapely', 'dash', 'trimesh') if m in sys.modules))\n"
+    )
+    done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=120)
+    assert (done.returncode, done.stdout) == (0, "[]\n"), done.stderr

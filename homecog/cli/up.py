@@ -202,7 +202,7 @@ def up(
         if broker is not None:  # the robot and the home in Home Assistant, gone when it stops
             from homecog.robot.announce import announce
 
-            stack.callback(announce(runtime, broker).start().stop)
+            stack.callback(announce(runtime, broker).start(wait=False).stop)
             say(f"in Home Assistant by MQTT discovery on {broker}: the robot's services, last action, undo")
         say(f"knowledge: {redact(store.url)} ({store.experience_count():,} experiences)", style="dim")
         say(f"homecog is up: http://{host if ':' not in host else f'[{host}]'}:{port}")

@@ -37,8 +37,8 @@ The payloads need no broker:
 >>> topic, config["unique_id"], config["state_topic"], config["device"]["name"]
 ('homeassistant/sensor/homecog_paper/services/config', 'homecog_paper_services', \
 'homecog/paper/robot/services', 'homecog robot (paper)')
->>> sorted({t.split("/")[1] for t in configs}), len(configs)      # 3 of the robot, 9 devices
-(['button', 'sensor', 'switch'], 12)
+>>> sorted({t.split("/")[1] for t in configs}), len(configs)      # 3 of the robot, 8 devices
+(['button', 'sensor', 'switch'], 11)
 """
 
 from __future__ import annotations
@@ -213,9 +213,11 @@ class HomeAssistantDiscovery:
         self._client: mqtt.Client | None = None
 
     # -- the connection ---------------------------------------------------------------------------
-    def start(self) -> HomeAssistantDiscovery:
-        """Connect, publish every config and ``online``; :class:`MqttError` when the broker
-        cannot be reached."""
+    def start(self, *, wait: bool = True) -> HomeAssistantDiscovery:
+        """Connect, then publish every config and ``online`` (again after every reconnection).
+        With ``wait``, :class:`MqttError` when the broker does not accept the connection within
+        the timeout; without, it connects in the background, as long as it takes (the robot
+        does not wait for an app)."""
         if self._client is None:
             client = make_client(self.address, self.client_id)
             client.will_set(self._availability, OFFLINE, qos=1, retain=True)
@@ -223,7 +225,11 @@ class HomeAssistantDiscovery:
             client.on_disconnect = lambda *a: self._connected.clear()
             client.on_subscribe = lambda *a: self._connected.set()
             client.on_message = self._on_message
-            connect(client, self.address, self._connected, self.connect_timeout)
+            if wait:
+                connect(client, self.address, self._connected, self.connect_timeout)
+            else:
+                client.connect_async(self.address.host, self.address.port, keepalive=30)
+                client.loop_start()
             self._client = client
         return self
 
