@@ -21,6 +21,7 @@ EXTRAS=(
     janus==1.0.0                         # file_upload, for frontend
     securetar==2024.2.1                  # backup
     SQLAlchemy==2.0.27 fnv-hash-fast==0.5.0 psutil-home-assistant==0.0.1  # recorder
+    paho-mqtt==1.6.1                     # mqtt: homecog's MQTT discovery (tests/test_ha_discovery.py)
 )
 say() { echo "home assistant: $*"; }
 
@@ -28,9 +29,23 @@ if [ "${HOMECOG_CI_HOME_ASSISTANT:-1}" = 0 ]; then
     say "HOMECOG_CI_HOME_ASSISTANT=0: not installing; its tests will skip"
     exit 0
 fi
-if [ -x "$VENV/bin/hass" ] && [ "$(cat "$STAMP" 2>/dev/null)" = "$VERSION" ]; then
+# the stamp: the version, then the extras it was installed with; a venv of the same version
+# whose extras differ gets the extras alone
+WANT="$VERSION ${EXTRAS[*]}"
+if [ -x "$VENV/bin/hass" ] && [ "$(cat "$STAMP" 2>/dev/null)" = "$WANT" ]; then
     say "$VERSION found in $VENV"
     exit 0
+fi
+if [ -x "$VENV/bin/hass" ] && [ "$(head -c ${#VERSION} "$STAMP" 2>/dev/null)" = "$VERSION" ]; then
+    uv="$(command -v uv || true)"
+    [ -n "$uv" ] || { [ -x .venv/bin/uv ] && uv="$PWD/.venv/bin/uv"; }
+    constraints="$(ls "$VENV"/lib/python3*/site-packages/homeassistant/package_constraints.txt 2>/dev/null | head -n 1)"
+    if [ -n "$uv" ] && [ -n "$constraints" ] &&
+        "$uv" pip install --quiet --python "$VENV/bin/python" --constraint "$constraints" "${EXTRAS[@]}" >/dev/null 2>&1; then
+        echo "$WANT" >"$STAMP"
+        say "$VERSION found in $VENV; its extras brought up to date"
+        exit 0
+    fi
 fi
 
 python=""
@@ -78,5 +93,5 @@ constraints="$(ls "$VENV"/lib/python3*/site-packages/homeassistant/package_const
 [ -n "$constraints" ] || fail "no package_constraints.txt in homeassistant==$VERSION"
 "$uv" pip install --quiet --python "$VENV/bin/python" --constraint "$constraints" \
     "homeassistant==$VERSION" "${EXTRAS[@]}" >"$tmp/log" 2>&1 || fail "could not install it"
-echo "$VERSION" >"$STAMP"
+echo "$WANT" >"$STAMP"
 say "installed $VERSION in $(($(date +%s) - start)) s"

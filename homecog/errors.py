@@ -93,3 +93,8 @@ class FleetError(HomecogError):
 
 class UnknownHomeError(HomecogError):
     """A home the fleet's database does not hold (the message names those it does)."""
+
+
+class DependencyNotInstalledError(HomecogError):
+    """An optional part of homecog whose extra is not installed (the pyrobosim body): the message
+    says what to install, as gymnasium's ``DependencyNotInstalled`` does."""

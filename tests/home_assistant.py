@@ -8,7 +8,9 @@ real devices switch, and an automation switches the radio when ``input_boolean.t
 on (a change with a parent context). :meth:`HomeAssistant.onboard` makes the owner, a person of
 the household, and :meth:`HomeAssistant.add_user` another user, the robot, each with a
 long-lived token, without a browser; :class:`ServiceCalls` records every service call the
-instance carries out, and as whom.
+instance carries out, and as whom; :class:`StateChanges` every state change, as it arrives;
+:func:`enable_mqtt` sets its MQTT integration up on a broker (it needs paho-mqtt 1.6.1 in its
+venv, which ``.ci/home_assistant.sh`` installs).
 """
 
 from __future__ import annotations
@@ -388,3 +390,77 @@ class ServiceCalls:
         except Exception as e:
             self._error = e
             self._ready.set()
+
+
+class StateChanges:
+    """Home Assistant's ``state_changed`` events, as they reach this process, each with the
+    moment it arrived (``time.perf_counter``): over a WebSocket of an administrator's token."""
+
+    def __init__(self, server: HomeAssistant, token: str) -> None:
+        self.server, self.token = server, token
+        self.events: list[tuple[float, str, dict[str, Any] | None]] = []
+        self._lock = threading.Lock()
+        self._ready = threading.Event()
+        self._loop: asyncio.AbstractEventLoop | None = None
+        self._task: asyncio.Task[None] | None = None
+        self._thread = threading.Thread(target=lambda: asyncio.run(self._follow()), daemon=True)
+
+    def __enter__(self) -> StateChanges:
+        self._thread.start()
+        if not self._ready.wait(10):
+            raise RuntimeError("could not follow Home Assistant's state changes")
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        if self._loop is not None and self._task is not None and not self._loop.is_closed():
+            self._loop.call_soon_threadsafe(self._task.cancel)
+        self._thread.join(10)
+
+    def of(self, entity: str, since: int = 0) -> list[tuple[float, dict[str, Any] | None]]:
+        with self._lock:
+            return [(t, s) for t, e, s in self.events[since:] if e == entity]
+
+    def count(self) -> int:
+        with self._lock:
+            return len(self.events)
+
+    async def _follow(self) -> None:
+        self._loop, self._task = asyncio.get_running_loop(), asyncio.current_task()
+        try:
+            async with (
+                aiohttp.ClientSession() as session,
+                session.ws_connect(f"{self.server.url}/api/websocket") as ws,
+            ):
+                await ws.receive_json()
+                await ws.send_json({"type": "auth", "access_token": self.token})
+                if (answer := await ws.receive_json())["type"] != "auth_ok":
+                    raise RuntimeError(f"Home Assistant refused the token: {answer}")
+                await ws.send_json({"id": 1, "type": "subscribe_events", "event_type": "state_changed"})
+                if not (await ws.receive_json()).get("success"):
+                    raise RuntimeError("Home Assistant refused the subscription to state_changed")
+                self._ready.set()
+                async for message in ws:
+                    data = (json.loads(message.data).get("event") or {}).get("data") or {}
+                    with self._lock:
+                        self.events.append(
+                            (time.perf_counter(), data.get("entity_id"), data.get("new_state"))
+                        )
+        except asyncio.CancelledError:
+            pass
+
+
+def enable_mqtt(server: HomeAssistant, url: str) -> None:
+    """Home Assistant's MQTT integration on the broker, set up as a person does in its app."""
+    from homecog.context.mqtt_broker import parse_url
+
+    address = parse_url(url)
+    flow = server.post("/api/config/config_entries/flow", {"handler": "mqtt"}, server.owner_token)
+    if flow.get("step_id") != "broker":
+        raise RuntimeError(f"Home Assistant's MQTT integration did not ask for the broker: {flow}")
+    done = server.post(
+        f"/api/config/config_entries/flow/{flow['flow_id']}",
+        {"broker": address.host, "port": address.port},
+        server.owner_token,
+    )
+    if done.get("type") != "create_entry":
+        raise RuntimeError(f"Home Assistant's MQTT integration could not be set up: {done}")

@@ -15,6 +15,7 @@ import typer
 from typer._click import exceptions as click_errors
 
 from homecog.cli import evaluate, fleet, home, knowledge, learn, plan, up
+from homecog.cli.export import export_app
 from homecog.cli.ha import ha_app
 from homecog.cli.log import adapt_kasteren, log_app
 from homecog.errors import HomecogError
@@ -30,6 +31,7 @@ home_app = typer.Typer(help="Show or check home definitions.", no_args_is_help=T
 app.add_typer(home_app, name="home")
 app.add_typer(ha_app, name="ha")
 app.add_typer(log_app, name="log")
+app.add_typer(export_app, name="export")
 fleet_app = typer.Typer(help="Learn a fleet of homes into one database (SPEC §14).", no_args_is_help=True)
 app.add_typer(fleet_app, name="fleet")
 fleet_app.command("train")(fleet.fleet_train)

@@ -1,5 +1,5 @@
 """``homecog plan`` and ``homecog simulate``: services decomposed into robot actions and carried
-out on the floor plan (SPEC §8, §13)."""
+out on the floor plan by a body, homecog's own or pyrobosim."""
 
 from __future__ import annotations
 
@@ -19,6 +19,19 @@ from homecog.home import Home, load_home
 
 ServicesOption = Annotated[
     str, typer.Option("--services", help="Services in priority order, comma-separated.")
+]
+RobotOption = Annotated[
+    str,
+    typer.Option(
+        "--robot", help="The body that carries the plan out: builtin (homecog's own simulator) or pyrobosim."
+    ),
+]
+PlannerOption = Annotated[
+    str | None,
+    typer.Option(
+        "--planner",
+        help="pyrobosim's path planner: astar (default), rrt, prm or world_graph (with --robot pyrobosim).",
+    ),
 ]
 PlanContextOption = Annotated[
     str | None,
@@ -62,6 +75,8 @@ def simulate(
     services: ServicesOption,
     home: HomeOption = "paper",
     context: PlanContextOption = None,
+    robot: RobotOption = "builtin",
+    planner: PlannerOption = None,
     png: Annotated[Path | None, typer.Option("--png", help="Draw the trajectory into this PNG file.")] = None,
     bag: Annotated[
         Path | None,
@@ -69,10 +84,12 @@ def simulate(
     ] = None,
     json: JsonOption = False,
 ) -> None:
-    """Plan the services and carry the plan out with a simulated robot on the floor plan."""
+    """Plan the services and carry the plan out with a robot on the floor plan (a failed action
+    is planned again from where it failed)."""
+    from homecog.errors import PlanningError
     from homecog.simulation import draw_trajectory
-    from homecog.simulation import simulate as run_simulation
     from homecog.simulation.bag import check_bag_folder, write_bag
+    from homecog.simulation.bodies import carry_out, make_body
 
     h = load_home(home)
     if png is not None:
@@ -80,8 +97,18 @@ def simulate(
     if bag is not None:
         check_bag_folder(bag)
     result = _plan(h, services, context)
-    sim = run_simulation(h, result.actions, state=result.start)
+    body = make_body(robot, h, result.start, planner=planner)
+    acting, sim = carry_out(body, result)
+    if not acting.achieved:
+        raise PlanningError(f"the {body.name} robot could not carry the plan out: {acting.reason}")
     data = sim.as_dict()
+    data["robot"] = {
+        "body": body.name,
+        "planner": body.planner,
+        "achieved": acting.achieved,
+        "replans": acting.replans,
+        "failures": [str(f) for f in acting.failures],
+    }
     data["png"] = None
     if png is not None:
         draw_trajectory(h.layout, sim, png)
@@ -97,7 +124,10 @@ def simulate(
             highlight=False,
             markup=False,
         )
-    stdout.print(f"{len(sim.timeline)} actions in {sim.seconds:.1f} s, {sim.distance_m:.2f} m driven")
+    for failure in acting.failures:
+        stdout.print(f"replanned: {failure}", style="dim", highlight=False, markup=False)
+    total = f"{len(sim.timeline)} actions in {sim.seconds:.1f} s, {sim.distance_m:.2f} m driven"
+    stdout.print(f"{total} by the {body.name} robot")
     if png is not None:
         stdout.print(f"trajectory: {png}")
     if bag is not None:

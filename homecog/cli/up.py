@@ -83,6 +83,13 @@ def up(
     undo_weight: Annotated[
         int | None, typer.Option(min=1, max=100, help="Corrections' worth of an undo (5).")
     ] = None,
+    robot: Annotated[
+        str,
+        typer.Option(
+            "--robot",
+            help="The robot's body in the simulated home: builtin (homecog's own simulator) or pyrobosim.",
+        ),
+    ] = "builtin",
 ) -> None:
     """Start the robot: train or reuse the Q table, build or reuse the tree, serve the HMI."""
     import functools
@@ -109,6 +116,19 @@ def up(
         )
     if household is not None and (mqtt is not None or home_assistant is not None or speed == 0):
         raise UsageProblemError("--household lives in the simulated home; it needs --speed > 0, no broker")
+    from homecog.simulation.bodies import BODIES
+
+    if robot not in BODIES:
+        raise UsageProblemError(f"--robot: unknown body {robot!r}; expected one of {', '.join(BODIES)}")
+    if robot != "builtin" and (mqtt is not None or home_assistant is not None):
+        raise UsageProblemError(
+            f"--robot {robot} is the simulated home's robot; in a home on a broker or Home Assistant "
+            "the robot switches by IoT"
+        )
+    if robot == "pyrobosim":  # before any training: the extra missing is said at once
+        from homecog.simulation.pyrobosim_body import require_pyrobosim
+
+        require_pyrobosim()
     h = load_home(home)
     people = household_settings(h.household, undo_window, hold, observed_weight, undo_weight)
     truth = load_home(household) if household is not None else None
@@ -145,7 +165,12 @@ def up(
             source = MqttSource(h, mqtt)
         if home_assistant is not None:
             source = ha_source
-        runtime = Runtime(home=h, store=store, tree=tree, source=source, household=people)
+        runtime = Runtime(home=h, store=store, tree=tree, source=source, household=people, robot=robot)
+        if runtime.actor.body is not None:
+            say(
+                f"the robot's body: {runtime.actor.body.name} ({runtime.actor.body.planner} paths)",
+                style="dim",
+            )
         if truth is not None:
             from homecog.evaluation.closed_loop import SimulatedHousehold
 
@@ -173,6 +198,12 @@ def up(
                 f"the simulated home on {publish}: states to homecog/{h.name}/state/<name>, "
                 f"commands from homecog/{h.name}/command/<device>"
             )
+        broker = mqtt or publish
+        if broker is not None:  # the robot and the home in Home Assistant, gone when it stops
+            from homecog.robot.announce import announce
+
+            stack.callback(announce(runtime, broker).start(wait=False).stop)
+            say(f"in Home Assistant by MQTT discovery on {broker}: the robot's services, last action, undo")
         say(f"knowledge: {redact(store.url)} ({store.experience_count():,} experiences)", style="dim")
         say(f"homecog is up: http://{host if ':' not in host else f'[{host}]'}:{port}")
         live = speed if mqtt is None and home_assistant is None else 1.0  # a real home's own clock

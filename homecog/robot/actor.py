@@ -25,7 +25,7 @@ from homecog.robot.attribution import Attribution
 from homecog.robot.holds import Holds
 from homecog.robot.journal import Journal, RobotAction
 from homecog.robot.settling import Settling
-from homecog.simulation.body import SimulatedRobot
+from homecog.simulation.bodies import make_body
 
 log = logging.getLogger("homecog.robot")
 
@@ -41,7 +41,7 @@ class Actor:
         attribution: Attribution,
         holds: Holds,
         journal: Journal,
-        body: bool,
+        body: str | None,
     ) -> None:
         self.home = home
         self.source = source
@@ -50,9 +50,10 @@ class Actor:
         self.journal = journal
         self.domain = make_domain(home)
         self._iot = {d.name for d in home.devices if d.iot}
-        # In the simulated home the robot has a body on the floor plan: it drives, brings,
-        # docks and switches by hand there. A real home (MQTT, Home Assistant) gets IoT switches.
-        self.body = SimulatedRobot(home, switch=self.switch, domain=self.domain) if body else None
+        # In the simulated home the robot has a body on the floor plan (``body``: its kind,
+        # homecog's own or pyrobosim): it drives, brings, docks and switches by hand there. A
+        # real home (MQTT, Home Assistant) gets IoT switches.
+        self.body = make_body(body, home, switch=self.switch, domain=self.domain) if body else None
         self.acted: Acting | None = None
         self.skipped_held = 0  # services left out because a person holds one of their devices
         self.settling = Settling(home)  # its own recent switches: not switched back at once

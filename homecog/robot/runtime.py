@@ -44,6 +44,7 @@ from homecog.robot.guidance import QUIET_SITUATION, Guidance
 from homecog.robot.holds import Holds, situation
 from homecog.robot.journal import Journal
 from homecog.robot.moments import Moments
+from homecog.simulation.bodies import Preview
 
 log = logging.getLogger("homecog.robot")
 #: what the household's hands taught: switches, undos, situations lived with the devices as left
@@ -66,6 +67,12 @@ class Runtime:
     watchers: list[Callable[[dict[str, str]], object]] = field(default_factory=list)
     after_tick: list[Callable[[], object]] = field(default_factory=list)
     """Called after every :meth:`tick` (a simulated household taking its turn)."""
+    robot: str = "builtin"
+    """The robot's body in the simulated home (:data:`homecog.simulation.bodies.BODIES`)."""
+    announcers: list[Callable[[str, object], object]] = field(default_factory=list)
+    """Told every event ``(kind, data)`` as the live stream is, and the robot's decisions
+    (``decision``: the services it proposes, their explanations, the user) when they change:
+    Home Assistant's entities (:mod:`homecog.robot.announce`)."""
 
     def __post_init__(self) -> None:
         self.household = self.household or self.home.household
@@ -75,7 +82,7 @@ class Runtime:
         self.holds = Holds(self.home, hold=self.household.hold)
         self.journal = Journal()
         self.guidance = Guidance(self.home, self.household, self.journal, self._learn)
-        body = isinstance(self.source, SimulatedHome) and self.home.layout is not None
+        body = self.robot if isinstance(self.source, SimulatedHome) and self.home.layout is not None else None
         self.actor = Actor(
             self.home,
             self.source,
@@ -87,6 +94,8 @@ class Runtime:
         self.household_switches = 0  # device changes by people (and automations) seen
         self._situation: tuple[float, dict[str, str] | None] = (0.0, None)  # since, latest context
         self._acting = threading.RLock()  # the robot acts, or an action is undone: one at a time
+        self._decision: tuple[list[str], list[Any]] | None = None  # the latest announced
+        self.preview = Preview(self.home, self.robot)  # the HMI's plans, beside the acting body
         self.moments = Moments(self.home, self.source.clock, simulated=isinstance(self.source, SimulatedHome))
         self.source.listen(self._changed)
 
@@ -164,14 +173,13 @@ class Runtime:
 
     def plan(self, services: list[str], context: Mapping[str, object] | None) -> dict[str, Any]:
         """The services decomposed into robot actions, in the given order, and the plan carried
-        out by the simulated robot on the floor plan: its timeline, time, distance and
+        out by a robot of the runtime's body on the floor plan: its timeline, time, distance and
         trajectory (``[t, x, y]`` rows, at most 400). :class:`PlanningError` when it cannot be."""
         from homecog.planning import plan_services
-        from homecog.simulation import simulate
 
         where = dict(self.space.context(self.space.point(context))) if context else None
         result = plan_services(self.home, services, context=where)
-        sim = simulate(self.home, result.actions, state=result.start)
+        sim = self.preview.run(result)
         simulation = sim.as_dict()
         del simulation["actions"]  # the same as the plan's
         simulation["trajectory"] = _thin(sim.trajectory, 400)
@@ -218,6 +226,7 @@ class Runtime:
             point = replace(self.space.point(now), recent=self.moments.recent(now))
             with self.lock:
                 proposed = self.tree.predict_one(point, user=user)
+            self._decided(now, proposed, user)
             acted = self.act(now, proposed, user=user, one_switch=True)
             if acted is None:
                 if self.moments.changed(now):  # a moment where nobody switched
@@ -227,6 +236,23 @@ class Runtime:
             done, now = acted, self.source.snapshot()
             self._situation = (self._situation[0], now)  # the situation's latest: as the robot left it
         return done
+
+    def _decided(self, now: Mapping[str, str], proposed: list[str], user: str) -> None:
+        """Tell the announcers what the robot proposes now and why, when that changed."""
+        if not self.announcers:
+            return
+        decision = (list(proposed), self._why(now, proposed, user))
+        if decision != self._decision:
+            self._decision = decision
+            data = {"services": decision[0], "explanations": decision[1], "user": user}
+            self._announce("decision", data)
+
+    def _announce(self, kind: str, data: object) -> None:
+        for announcer in self.announcers:
+            try:
+                announcer(kind, data)
+            except Exception:  # the robot goes on whatever an app does
+                log.exception("an announcer failed on %s", kind)
 
     def _changes(self, service: str, now: Mapping[str, str]) -> bool:
         """Whether a service would change anything in the context (an errand always does)."""
@@ -346,6 +372,7 @@ class Runtime:
         watcher."""
         if kind == "context":
             tell_all(self.watchers, data)  # type: ignore[arg-type]
+        self._announce(kind, data)
         if not self.bus.listening:
             return
         if kind == "context":

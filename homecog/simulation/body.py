@@ -1,12 +1,13 @@
-"""The simulated robot's body (SPEC §8, §10): commands that carry a plan's actions out on the
-floor plan, for acting (:mod:`homecog.planning.acting`).
+"""The simulated robot's body: homecog's own 2D simulator behind the body
+interface (:mod:`homecog.simulation.interface`), whose commands carry a plan's actions out on
+the floor plan, for acting (:mod:`homecog.planning.acting`).
 
 The world is a :class:`~homecog.simulation.Simulation`: where the robot and the objects really
-are, which may differ from what the robot believes. A command checks the action against the
+are, which may differ from what the robot believes. An action is checked against the
 world (the planning domain's reason when it does not apply: the cup is not where the robot
 thought), switches the device in the home through ``switch`` for a switch (a context source's,
-so that the simulated home sees it), and runs the action in the simulation, which takes its
-time and drives its path.
+so that the simulated home sees it), and runs in the simulation, which takes its time and drives
+its path; it answers with an :class:`~homecog.simulation.interface.Outcome`.
 
 >>> from homecog.home import load_home
 >>> from homecog.planning import act, initial_state
@@ -26,20 +27,17 @@ plan 1: ('pick', 'cup', 'dispenser') failed: 'cup' is not at 'dispenser'
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import Any
 
-from homecog.errors import CommandError, PlanningError
+from homecog.errors import PlanningError
 from homecog.home.model import Home
 from homecog.planning import Domain, State, make_domain
-from homecog.planning.acting import Command
+from homecog.simulation.interface import Body, Outcome
 from homecog.simulation.robot import DiffDrive
-from homecog.simulation.simulate import Simulation
-
-SWITCHES = ("switch_iot", "switch_by_hand")
+from homecog.simulation.simulate import Simulation, SimulationResult
 
 
-class SimulatedRobot:
-    """A robot on a home's floor plan that carries actions out as commands.
+class SimulatedRobot(Body):
+    """A robot on a home's floor plan, homecog's own simulator: a differential drive on A* paths.
 
     Parameters
     ----------
@@ -53,6 +51,9 @@ class SimulatedRobot:
     robot, domain
         The robot's limits and the planning domain (default: made from the home).
     """
+
+    name = "builtin"
+    planner = "astar"  # homecog's own A* on the occupancy grid (homecog.simulation.grid)
 
     def __init__(
         self,
@@ -74,34 +75,50 @@ class SimulatedRobot:
         return self.simulation.state
 
     def start(self, world: State) -> None:
-        """Begin a new run (a new timeline and trajectory) from ``world``."""
         self.simulation = Simulation(self.home, world, robot=self.simulation.robot, domain=self.domain)
 
     def observe(self) -> State:
         """What the robot sees of the world: all of it."""
         return self.simulation.state.copy()
 
-    def commands(self) -> dict[str, Command]:
-        """A command for every action of the domain."""
-        return {kind: self._command(kind) for kind in self.domain.actions}
+    def result(self) -> SimulationResult:
+        return self.simulation.result()
 
-    def _command(self, kind: str) -> Command:
-        def command(state: State, *args: str) -> Any:
-            action = (kind, *args)
-            expected = self.domain.apply(state, action)  # PlanningError: a plan the robot did not make
-            why = self.domain.why_not(self.simulation.state, action)
-            if why is not None:
-                raise CommandError(why)
-            if self.switch is not None and kind in SWITCHES:
-                try:
-                    self.switch(args[0], args[1] == "on")
-                except Exception as e:  # the home's switch failing is the world's, not our bug
-                    raise CommandError(f"{type(e).__name__}: {e}") from e
-            try:
-                self.simulation.run(action)
-            except PlanningError as e:  # a path that cannot be driven
-                raise CommandError(str(e)) from e
-            return expected
+    def move(self, origin: str, target: str) -> Outcome:
+        return self._run(("move", origin, target))
 
-        command.__name__ = command.__qualname__ = f"c_{kind}"  # GTPyhop's name of a command
-        return command
+    def pick(self, obj: str, place: str) -> Outcome:
+        return self._run(("pick", obj, place))
+
+    def pour(self, obj: str, place: str) -> Outcome:
+        return self._run(("pour", obj, place))
+
+    def hand_over(self, obj: str, who: str) -> Outcome:
+        return self._run(("hand_over", obj, who))
+
+    def speak(self, text: str) -> Outcome:
+        return self._run(("speak", text))
+
+    def switch_iot(self, device: str, setting: str) -> Outcome:
+        return self._run(("switch_iot", device, setting))
+
+    def switch_by_hand(self, device: str, setting: str) -> Outcome:
+        return self._run(("switch_by_hand", device, setting))
+
+    def dock(self, place: str) -> Outcome:
+        return self._run(("dock", place))
+
+    def _run(self, action: tuple[str, ...]) -> Outcome:
+        """Check ``action`` against the world, switch the home for a switch, then simulate it."""
+        why = self.domain.why_not(self.simulation.state, action)
+        if why is not None:
+            return Outcome.failed(why)
+        if action[0] in ("switch_iot", "switch_by_hand"):
+            switched = self._switch(action[1], action[2])
+            if not switched.success:
+                return switched
+        try:
+            self.simulation.run(action)
+        except PlanningError as e:  # a path that cannot be driven
+            return Outcome.failed(str(e))
+        return Outcome.done()

@@ -108,6 +108,7 @@ class Simulation:
         *,
         robot: DiffDrive | None = None,
         domain: Domain | None = None,
+        pose: tuple[float, float, float] | None = None,
     ) -> None:
         layout = home.layout
         if layout is None:
@@ -119,11 +120,17 @@ class Simulation:
         self.domain = domain or make_domain(home)
         self.state = state.copy() if state is not None else initial_state(home)
         _check_place(layout, self.state.robot, "the robot's start")
-        x, y = layout.place(self.state.robot)
+        x, y, theta = pose if pose is not None else (*layout.place(self.state.robot), 0.0)
         self.clock, self.distance_m = 0.0, 0.0
         self.actions: list[tuple[str, ...]] = []
         self.timeline: list[dict[str, Any]] = []
-        self._chunks = [np.array([[0.0, x, y, 0.0]])]
+        self._chunks = [np.array([[0.0, x, y, theta]])]
+
+    @property
+    def pose(self) -> tuple[float, float, float]:
+        """Where the robot is now: ``x, y, theta``."""
+        _, x, y, theta = self._chunks[-1][-1]
+        return float(x), float(y), float(theta)
 
     def run(self, action: Action) -> dict[str, Any]:
         """Carry out one action and return its row of the timeline. Raises
@@ -136,14 +143,26 @@ class Simulation:
         why = self.domain.why_not(self.state, action)
         if why is not None:
             raise PlanningError(f"{where}: {why}")
-        kind, distance, begin = action[0], 0.0, self.clock
-        if kind == "move":
+        poses = None
+        if action[0] == "move":
             poses = self.robot.follow(
                 plan_path(self.layout, action[1], action[2], radius=self.robot.radius),
-                theta=float(self._chunks[-1][-1, 3]),
+                theta=self.pose[2],
                 t=self.clock,
             )
-            if len(poses):
+        return self.record(action, poses)
+
+    def record(self, action: Action, poses: np.ndarray | None = None) -> dict[str, Any]:
+        """Record an action carried out and return its row of the timeline: a move by its
+        ``poses`` (rows ``t, x, y, theta`` after the clock now; none where it did not move),
+        any other action by its duration (:func:`action_seconds`) on the spot. The planning
+        state changes by the domain's action (:class:`PlanningError` where it does not apply).
+        A body other than the simulator's own drives its path and records it here."""
+        action = tuple(action)
+        after = self.domain.apply(self.state, action)
+        kind, distance, begin = action[0], 0.0, self.clock
+        if kind == "move":
+            if poses is not None and len(poses):
                 steps = np.diff(np.vstack([self._chunks[-1][-1:], poses])[:, 1:3], axis=0)
                 distance = float(np.hypot(steps[:, 0], steps[:, 1]).sum())
                 self.clock = round(float(poses[-1, 0]), 6)
@@ -152,11 +171,11 @@ class Simulation:
             self.clock = round(self.clock + action_seconds(action), 6)
             last = self._chunks[-1][-1]
             self._chunks.append(np.array([[self.clock, last[1], last[2], last[3]]]))
-        self.state = self.domain.apply(self.state, action)
+        self.state = after
         self.distance_m += distance
         self.actions.append(action)
         row = {
-            "index": index,
+            "index": len(self.timeline) + 1,
             "action": list(action),
             "start": begin,
             "end": self.clock,
