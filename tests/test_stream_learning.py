@@ -187,3 +187,14 @@ def test_a_correction_with_a_missing_reading_keys_on_unknown(tmp_path: Path):
     again = Store(f"sqlite:///{tmp_path}/k.sqlite", home)
     assert "TurnOnLamp" in open_tree(home, again).predict_one(missing, "kim")
     again.close()
+
+
+def test_partial_examples_refine_the_shared_answer_by_the_context_alone():
+    """A person's switches, however well the recent past would sort them, are learned over the
+    context: a few of them cannot tell which of the recent past's keys matters."""
+    learner = ServiceLearner(3, {}, order=2, n_recent=1)
+    for k in range(40):
+        recent = "a" if k % 2 else "b"
+        learner.add([None, None], [k % 3, 0], recent == "a", shared=True, recent=(recent,), partial=True)
+    assert not learner.streaming
+    assert 1 not in learner.best_key() and 2 in learner.best_key()  # no recent atom; the shared answer

@@ -132,6 +132,10 @@ class ServiceLearner:
         recents = range(self.n_atoms - 1 - self.n_recent, shared_atom)
         self._recent_keys = {i for i, k in enumerate(self.keys) if any(j in recents for j in k)}
         self._shared_subs = [[j for j in subs if shared_atom in self.keys[j]] for subs in self._subs]
+        # the keys partial examples answer by: the shared answer refined by the context alone (a
+        # few switches cannot tell which of the recent past's many keys matters; measured in the
+        # closed loop, keying them on it raised the household's own switches)
+        self._partial_keys = [i for i in self._shared_keys if i not in self._recent_keys]
         self._prior_rank = [(-len(self.prior.intersection(k)), len(set(k) - self.prior)) for k in self.keys]
 
     def _start_recent(self) -> None:
@@ -201,8 +205,8 @@ class ServiceLearner:
         A ``partial`` example (one of a correction that spoke of some services only: what a
         person's hands said) is counted under the keys that hold the shared answer alone: it
         refines what the shared knowledge says where it says it, and a service with such
-        examples answers by those keys only — so a few switches, all of them "wanted", do not
-        spread over every context."""
+        examples answers by those of them over the context alone — so a few switches, all of
+        them "wanted", do not spread over every context or every recent past."""
         if recent and not self._recent_on and any(a != "unknown" for a in recent):
             self._start_recent()
         self._examples.append((readings, codes, wanted, shared, ident, recent))
@@ -277,7 +281,7 @@ class ServiceLearner:
         if self._best is None:
             losses = self._preq if self.streaming else self._loo
             rounded = self._rounded = [round(loss, 6) for loss in losses]
-            candidates = self._shared_keys if self._partial else range(len(self.keys))
+            candidates = self._partial_keys if self._partial else range(len(self.keys))
             least = min(rounded[i] for i in candidates)
             tied = (i for i in candidates if rounded[i] == least)
             self._best = min(tied, key=self._prior_rank.__getitem__)
