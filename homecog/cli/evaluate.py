@@ -14,6 +14,7 @@ from homecog.cli.options import (
     HomeOption,
     JsonOption,
     UsageProblemError,
+    check_readable,
     check_writable,
     method_names,
     status,
@@ -80,8 +81,9 @@ def eval_command(
             raise UsageProblemError(f"--scenarios must be at least 1, got {cases}")
     else:
         cases = Path(scenarios)
-        if not cases.is_file():
+        if not cases.exists() and not cases.is_symlink():
             raise UsageProblemError(f"--scenarios {scenarios}: no such file (give a number or a CSV file)")
+        check_readable(cases, "--scenarios", "a scenario file")
     if report is not None:
         check_writable(report / "report.md")
     result = run_eval(
@@ -194,8 +196,7 @@ def replay(
 
     h = load_home(home)
     names = method_names(methods)
-    if not events.is_file():
-        raise UsageProblemError(f"--events {events}: no such file")
+    check_readable(events, "--events", "an event file")
     if report is not None:
         check_writable(report / "replay.md")
     if predictions is not None:

@@ -14,11 +14,13 @@ from homecog.cli.options import (
     HomeOption,
     JsonOption,
     UsageProblemError,
+    check_readable,
     check_writable,
     status,
 )
-from homecog.cli.output import big_number, emit_json, progress_bar, stdout
+from homecog.cli.output import emit_json, progress_bar, stdout
 from homecog.home import load_home
+from homecog.learning.size import big_number
 
 
 class Mode(StrEnum):
@@ -126,8 +128,8 @@ def build(
     from homecog.knowledge.store import Store, redact
 
     h = load_home(home)
-    if q is not None and not q.exists():
-        raise UsageProblemError(f"--q {q}: no such file")
+    if q is not None:
+        check_readable(q, "--q", "a Q table", limit=2**40)
     store = Store(db, h)
     try:
         result = run_build(h, store, q_path=q, mode=mode.value, seed=seed, joint=joint, progress=status)
