@@ -40,6 +40,7 @@ def responses(*codes: int, stream: bool = False) -> dict[int | str, dict[str, An
         409: "A valid request the server cannot carry out in its present state.",
         413: "A request body over the size limit (64 KiB).",
         422: "The request does not fit the contract; the message names what is wrong.",
+        429: "The planner is busy with other plans: ask again after `Retry-After` seconds.",
         503: "The knowledge database cannot be used, or the home has not reported its state yet.",
     }
     if stream:
@@ -139,6 +140,8 @@ def validation_message(errors: Any, home: Home) -> str:
         )
     if kind in CORRECTION_ERRORS:  # a correction's own rules: their message says it all
         return str(e.get("msg", "invalid correction"))
+    if kind == "user_name":
+        return f"{'.'.join(where) or 'user'}: {e.get('msg')}"
     if len(where) == 2 and where[0] == "change" and kind == "extra_forbidden":
         return f"unknown service {where[1]!r}; expected some of {', '.join(home.service_names)}"
     if len(where) == 2 and where[0] == "change" and kind == "literal_error":
