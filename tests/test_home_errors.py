@@ -158,7 +158,8 @@ BAD_CASES = [
     ),
     pytest.param(
         put("name", ""),
-        "bad.yaml: name: '' is not a home name: 1 to 64 letters, digits, _ or -, beginning with a letter or digit",
+        "bad.yaml: name: '' is not a home name: 1 to 64 letters, digits, _ or -, "
+        "beginning with a letter or digit",
         id="empty-name",
     ),
     pytest.param(

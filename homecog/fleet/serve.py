@@ -22,7 +22,6 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
-import hmac
 import json
 import threading
 from collections import OrderedDict
@@ -43,6 +42,7 @@ from homecog.knowledge.store import Store, migrate
 from homecog.knowledge.store_log import stored_homes
 from homecog.names import home_name_problem, shown
 from homecog.robot.runtime import Runtime
+from homecog.web.deps import authorized as is_authorized
 from homecog.web.settings import Settings
 
 READ = ("GET", "HEAD")  # the methods of the list of homes and of the schemas
@@ -242,7 +242,7 @@ class FleetApp:
         if path.startswith(PREFIX + "/"):
             name, _, rest = path[len(PREFIX) + 1 :].partition("/")  # the path is decoded already
         schema_asked = name is not None and rest == HOME_SCHEMA
-        authorized = self._authorized(scope)
+        authorized = is_authorized(scope["headers"], self.token)
         if path.startswith("/api") and not authorized and not schema_asked:
             detail = "this server needs its token: Authorization: Bearer <token>"
             return await _answer(send, 401, {"detail": detail}, [(b"www-authenticate", b"Bearer")])
@@ -299,12 +299,6 @@ class FleetApp:
         if version != entry.version:
             await asyncio.to_thread(fleet.refresh, entry, version)
         return entry
-
-    def _authorized(self, scope: dict[str, Any]) -> bool:
-        if self.token is None:
-            return True
-        scheme, _, given = dict(scope["headers"]).get(b"authorization", b"").partition(b" ")
-        return scheme.lower() == b"bearer" and hmac.compare_digest(given.strip(), self.token)
 
 
 async def _answer(
