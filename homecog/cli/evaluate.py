@@ -191,12 +191,12 @@ def replay(
     json: JsonOption = False,
 ) -> None:
     """Prequential evaluation: every method predicts each event, then learns it."""
+    check_readable(events, "--events", "an event file")  # before the imports: a second or two
     from homecog.evaluation.replay import replay as run_replay
     from homecog.evaluation.report import write_replay_report
 
     h = load_home(home)
     names = method_names(methods)
-    check_readable(events, "--events", "an event file")
     if report is not None:
         check_writable(report / "replay.md")
     if predictions is not None:

@@ -67,10 +67,10 @@ def home_check(
     file: Annotated[str, typer.Argument(help="The home file to validate.")], json: JsonOption = False
 ) -> None:
     """Validate a home file; report its size and any start state that cannot reach its optimum."""
+    h = load_home(file)  # before the imports below: a bad file is refused at once
     from homecog.environment.conflicts import find_conflicts
     from homecog.learning.size import check_size, describe
 
-    h = load_home(file)
     size = check_size(h)
     if h.layout is not None:  # every place the robot may be sent to must be reachable
         from homecog.simulation import plan_path

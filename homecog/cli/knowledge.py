@@ -148,11 +148,11 @@ def correct(
 
 def _correct_events(events: Path, *, home: str, user: str, db: str | None, batch: int, json: bool) -> None:
     """``correct --events``: the whole file checked, then learned in batches of transactions."""
+    check_readable(events, "--events", "an event file")
     from homecog.cli.output import progress_bar
     from homecog.knowledge.event_file import learn_corrections, read_corrections
 
     h = load_home(home)
-    check_readable(events, "--events", "an event file")
     corrections = read_corrections(events, h, user)  # every row checked before the first write
     with _knowledge(h, db) as (store, tree), progress_bar("learning corrections", len(corrections)) as bar:
         result = learn_corrections(store, tree, corrections, batch=batch, progress=bar)

@@ -51,6 +51,7 @@ def train(
     json: JsonOption = False,
 ) -> None:
     """Learn the home's services by Sarsa, group by group, and save the Q tables."""
+    h = load_home(home)  # before the imports below: a bad file is refused at once
     from dataclasses import replace
 
     from homecog.learning.grouped import train_policy
@@ -58,7 +59,6 @@ def train(
     from homecog.learning.size import check_size
     from homecog.paths import q_table_path
 
-    h = load_home(home)
     given = {
         "episodes": episodes if joint else None,
         "seed": seed,

@@ -24,6 +24,7 @@ from __future__ import annotations
 import json
 from typing import Any
 
+import uvicorn
 from uvicorn.protocols.http.httptools_impl import HttpToolsProtocol
 
 from homecog.web.settings import Settings
@@ -146,11 +147,9 @@ def guarded(app: Any, settings: Settings) -> Any:
     return LoopbackOnly(app) if settings.token is None else app
 
 
-def run(app: Any, settings: Settings, *, host: str, port: int) -> None:
-    """Serve ``app`` until interrupted, with the guards above."""
-    import uvicorn
-
-    config = uvicorn.Config(
+def config(app: Any, settings: Settings, *, host: str, port: int) -> uvicorn.Config:
+    """uvicorn's configuration of ``app`` served with the guards above."""
+    return uvicorn.Config(
         guarded(app, settings),
         host=host,
         port=port,
@@ -159,5 +158,10 @@ def run(app: Any, settings: Settings, *, host: str, port: int) -> None:
         access_log=False,
         proxy_headers=False,  # no proxy is trusted: X-Forwarded-For is not the client
         timeout_keep_alive=5,
+        timeout_graceful_shutdown=1,
     )
-    uvicorn.Server(config).run()
+
+
+def run(app: Any, settings: Settings, *, host: str, port: int) -> None:
+    """Serve ``app`` until interrupted, with the guards above."""
+    uvicorn.Server(config(app, settings, host=host, port=port)).run()
