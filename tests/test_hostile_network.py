@@ -37,9 +37,9 @@ TOKEN = "hostile-token-1"
 
 
 @pytest.fixture(scope="module")
-def runtime():
+def runtime(tmp_path_factory):
     home = load_home_text(STUDIO.read_text() + LAYOUT, "studio.yaml")
-    store = Store("sqlite://", home)
+    store = Store(f"sqlite:///{tmp_path_factory.mktemp('hostile') / 'k.sqlite'}", home)
     runtime = Runtime(home=home, store=store, tree=IHDRTree(home), source=ManualSource(home))
     runtime.set_context({"time": "10:00", "light": 50, "activity": "work"})
     yield runtime
@@ -282,3 +282,26 @@ def test_users_of_two_spellings_are_two_users_on_every_server(fleet_url):
         assert again.predict_one(point, "Kim") != again.predict_one(point, "kim")
     finally:
         store.close()
+
+
+def test_the_cookie_acts_only_for_the_page_s_own_origin(runtime):
+    """The page's cookie (HttpOnly, SameSite=Strict) opens reads; a request that changes
+    something needs the server's own ``Origin`` too, so no other page can make a browser act."""
+    client = TestClient(create_app(runtime, Settings(token=TOKEN)), base_url="http://robot:8000")
+    r = client.post("/api/session", headers={"Authorization": f"Bearer {TOKEN}"})
+    assert r.status_code == 204
+    assert r.headers["set-cookie"] == f"homecog_token={TOKEN}; HttpOnly; Path=/api; SameSite=strict"
+    client.cookies.set("homecog_token", TOKEN)
+    assert client.get("/api/context").status_code == 200
+    body = {"context": runtime.json_context(), "want": [], "user": "kim"}
+    count = runtime.store.experience_count()
+    for origin in (None, "http://evil.example", "http://robot:9999", "null"):
+        headers = {} if origin is None else {"Origin": origin}
+        assert client.post("/api/corrections", json=body, headers=headers).status_code == 401, origin
+        assert (
+            client.post("/api/cognize", json={"context": body["context"]}, headers=headers).status_code == 401
+        )
+    assert runtime.store.experience_count() == count
+    assert (
+        client.post("/api/corrections", json=body, headers={"Origin": "http://robot:8000"}).status_code == 200
+    )

@@ -24,6 +24,7 @@ import asyncio
 import contextlib
 import json
 import threading
+import time
 from collections import OrderedDict
 from dataclasses import dataclass
 from typing import Any
@@ -71,6 +72,7 @@ class Fleet:
         self._entries: OrderedDict[str, Entry] = OrderedDict()
         self._loading = threading.Lock()
         self._conn: Connection | None = None  # autocommit, the version reads' own (a server's)
+        self._listed: tuple[float, list[str]] | None = None  # when, the homes (for a 404)
         try:
             migrate(self.engine)
         except (SQLAlchemyError, DBAPIError, OSError) as e:
@@ -92,8 +94,12 @@ class Fleet:
             raise StoreError(db_message(self.url, e)) from None
 
     def unknown(self, name: str) -> str:
-        """Why ``name`` is no home here: the homes the database holds."""
-        names = self.names()
+        """Why ``name`` is no home here: the homes the database holds (read at most once a
+        second: a client asking for names the database lacks costs no query of its own)."""
+        now = time.monotonic()
+        if self._listed is None or now - self._listed[0] > 1.0:
+            self._listed = (now, self.names())
+        names = self._listed[1]
         return f"unknown home {shown(name)}; the database holds " + (
             ", ".join(repr(n) for n in names) if names else "no home yet (homecog fleet train)"
         )
@@ -242,7 +248,7 @@ class FleetApp:
         if path.startswith(PREFIX + "/"):
             name, _, rest = path[len(PREFIX) + 1 :].partition("/")  # the path is decoded already
         schema_asked = name is not None and rest == HOME_SCHEMA
-        authorized = is_authorized(scope["headers"], self.token)
+        authorized = is_authorized(scope["headers"], self.token, method)
         if path.startswith("/api") and not authorized and not schema_asked:
             detail = "this server needs its token: Authorization: Bearer <token>"
             return await _answer(send, 401, {"detail": detail}, [(b"www-authenticate", b"Bearer")])

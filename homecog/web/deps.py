@@ -44,29 +44,34 @@ COOKIE = "homecog_token"
 MISSING = "this server needs its token: Authorization: Bearer <token>"
 
 
-def authorized(headers: list[tuple[bytes, bytes]], token: bytes | None) -> bool:
-    """Whether raw ASGI ``headers`` carry ``token``, as a bearer or in the cookie (the fast
-    path's and the fleet's check, before FastAPI parses anything).
+def authorized(headers: list[tuple[bytes, bytes]], token: bytes | None, method: str = "GET") -> bool:
+    """Whether raw ASGI ``headers`` carry ``token``: as a bearer, or in the cookie. The cookie
+    opens a request that changes something (any method but GET and HEAD) only from the page's
+    own origin (``Origin`` is the server's), so that no other page a browser shows (another
+    site, or another server on this machine) can make the browser act with it.
 
     >>> authorized([(b"authorization", b"Bearer s3cret-token")], b"s3cret-token")
     True
-    >>> authorized([(b"cookie", b"a=1; homecog_token=s3cret-token")], b"s3cret-token")
-    True
     >>> authorized([(b"authorization", b"Bearer s3cret-tokeN")], b"s3cret-token")
     False
+    >>> cookie = (b"cookie", b"a=1; homecog_token=s3cret-token")
+    >>> authorized([cookie], b"s3cret-token"), authorized([cookie], b"s3cret-token", "POST")
+    (True, False)
+    >>> own = [cookie, (b"host", b"robot:8000"), (b"origin", b"http://robot:8000")]
+    >>> authorized(own, b"s3cret-token", "POST")
+    True
     """
     if token is None:
         return True
-    for name, value in headers:
-        if name == b"authorization":
-            scheme, _, given = value.partition(b" ")
-            if scheme.lower() == b"bearer" and hmac.compare_digest(given.strip(), token):
-                return True
-        elif name == b"cookie":
-            for part in value.split(b";"):
-                key, _, given = part.strip().partition(b"=")
-                if key == COOKIE.encode() and hmac.compare_digest(given, token):
-                    return True
+    found = dict(headers)
+    scheme, _, given = found.get(b"authorization", b"").partition(b" ")
+    if scheme.lower() == b"bearer" and hmac.compare_digest(given.strip(), token):
+        return True
+    for part in found.get(b"cookie", b"").split(b";"):
+        key, _, given = part.strip().partition(b"=")
+        if key == COOKIE.encode() and hmac.compare_digest(given, token):
+            origin, host = found.get(b"origin"), found.get(b"host", b"")
+            return method in ("GET", "HEAD") or origin in (b"http://" + host, b"https://" + host)
     return False
 
 
@@ -99,33 +104,30 @@ def matches(given: str | None, token: str) -> bool:
 
 
 def require_token(
+    request: Request,
     settings: SettingsDep,
     credentials: Annotated[HTTPAuthorizationCredentials | None, Security(bearer)],
     cookie: Annotated[str | None, Security(in_cookie)],
 ) -> None:
-    """401 unless the request carries the server's token (a bearer, or the cookie)."""
-    if settings.token is None:
-        return
-    if not (
-        matches(credentials and credentials.credentials, settings.token) or matches(cookie, settings.token)
+    """401 unless the request carries the server's token (a bearer, or the cookie:
+    :func:`authorized`)."""
+    if settings.token is not None and not authorized(
+        request.scope["headers"], settings.token.encode(), request.method
     ):
         raise HTTPException(401, detail=MISSING, headers={"WWW-Authenticate": "Bearer"})
 
 
 def require_token_or_query(
+    request: Request,
     settings: SettingsDep,
     credentials: Annotated[HTTPAuthorizationCredentials | None, Security(bearer)],
     cookie: Annotated[str | None, Security(in_cookie)],
     access_token: Annotated[str | None, Security(in_query)],
 ) -> None:
     """As :func:`require_token`, the token also taken from ``?access_token=``."""
-    if settings.token is None:
+    if settings.token is None or matches(access_token, settings.token):
         return
-    if not (
-        matches(credentials and credentials.credentials, settings.token)
-        or matches(cookie, settings.token)
-        or matches(access_token, settings.token)
-    ):
+    if not authorized(request.scope["headers"], settings.token.encode(), request.method):
         raise HTTPException(
             401, detail=f"{MISSING} (or ?access_token=<token>)", headers={"WWW-Authenticate": "Bearer"}
         )

@@ -38,7 +38,7 @@ class CognizeFastPath:
             return await self.app(scope, receive, send)
         kind = dict(scope["headers"]).get(b"content-type", b"")  # repeated: the last, not ours
         if kind.split(b";")[0].strip().lower() != b"application/json" or not authorized(
-            scope["headers"], self.token
+            scope["headers"], self.token, scope["method"]
         ):
             return await self.app(scope, receive, send)
         chunks, more = [], True

@@ -4,8 +4,10 @@ A plan costs a tenth of a second to a second of Python (decomposing, then simula
 Run in the server's threads, twenty clients asking for plans held every other answer behind the
 interpreter lock (``GET /api/context`` waited half a second). Here plans run one at a time in a
 worker process, started at the first plan; the event loop only awaits them, so cognition and
-the context answer as fast as without them. At most :data:`MAX_WAITING` plan requests wait at
-once; more get 429 with ``Retry-After`` (docs/design.md, "Hostile input").
+the context answer as fast as without them (the worker runs at a lower priority, so even on a
+machine of one or two cores it takes only the time the server leaves). At most
+:data:`MAX_WAITING` plan requests wait at once; more get 429 with ``Retry-After``
+(docs/design.md, "Hostile input").
 
 A home goes to the worker as pickled bytes, made once per home, and the worker keeps the
 homes it has unpickled, so a large home costs its unpickling once.
@@ -14,7 +16,9 @@ homes it has unpickled, so a large home costs its unpickling once.
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import multiprocessing
+import os
 import pickle
 from collections import OrderedDict
 from collections.abc import Mapping
@@ -41,6 +45,13 @@ def _plan_in_worker(key: str, data: bytes, services: list[str], context: Mapping
         while len(_homes) > _KEPT:
             _homes.popitem(last=False)
     return plan_request(home, services, context)
+
+
+def _behind_the_server() -> None:
+    """The worker yields the processor to the server: an answer waits on no plan, even where
+    the machine has one core for both."""
+    with contextlib.suppress(OSError):
+        os.nice(10)
 
 
 class Planner:
@@ -83,7 +94,8 @@ class Planner:
 
     def _executor(self) -> ProcessPoolExecutor:
         if self._pool is None:
-            self._pool = ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("spawn"))
+            spawn = multiprocessing.get_context("spawn")
+            self._pool = ProcessPoolExecutor(1, mp_context=spawn, initializer=_behind_the_server)
         return self._pool
 
 

@@ -2,7 +2,7 @@
 
 Two guards beyond the app's own (docs/design.md, "Hostile input"):
 
-- **Slow or half-sent requests time out.** A client has ``request_timeout`` seconds (10) from
+- **Slow or half-sent requests time out.** A client has ``request_timeout`` seconds (5) from
   its connection, or from the first byte of its next request, to send the whole request; one
   that is slower, or stops half-way, is answered 408 and its connection closed, and request
   headers over 64 KiB get 431. uvicorn itself waits forever for a request that never ends; it

@@ -50,7 +50,7 @@ class Settings(BaseSettings):
     )
     max_body: int = Field(MAX_BODY, ge=1024, description="Request bodies over this many bytes get 413.")
     request_timeout: float = Field(
-        10.0,
+        5.0,
         gt=0,
         le=600,
         description="Seconds a client has to send a whole request (its headers and body); a slower "
