@@ -128,11 +128,11 @@ def serve(app: Any, settings: Any = None) -> Iterator[str]:
     ``settings``, served as ``homecog up`` serves it (:mod:`homecog.web.serving`)."""
     import uvicorn
 
-    from homecog.web.serving import config as served
+    from homecog.web.serving import guarded, options
 
     port = free_port()
     if settings is not None:
-        config = served(app, settings, host="127.0.0.1", port=port)
+        config = uvicorn.Config(guarded(app, settings), **options(settings, host="127.0.0.1", port=port))
     else:
         config = uvicorn.Config(
             app, host="127.0.0.1", port=port, log_level="warning", timeout_graceful_shutdown=1

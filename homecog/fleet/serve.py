@@ -44,6 +44,7 @@ from homecog.knowledge.store_log import stored_homes
 from homecog.names import home_name_problem, shown
 from homecog.robot.runtime import Runtime
 from homecog.web.deps import authorized as is_authorized
+from homecog.web.planner import PLANNER
 from homecog.web.settings import Settings
 
 READ = ("GET", "HEAD")  # the methods of the list of homes and of the schemas
@@ -338,5 +339,6 @@ async def _lifespan(receive: Any, send: Any) -> None:
         if message["type"] == "lifespan.startup":
             await send({"type": "lifespan.startup.complete"})
         elif message["type"] == "lifespan.shutdown":
+            PLANNER.close()
             await send({"type": "lifespan.shutdown.complete"})
             return

@@ -36,6 +36,7 @@ from sqlalchemy.exc import DBAPIError, OperationalError, SQLAlchemyError
 from homecog.errors import ConflictError, NameProblemError, StoreError
 from homecog.home.codec import Point
 from homecog.home.model import Home
+from homecog.knowledge.before import Before
 from homecog.knowledge.database import (
     db_message,
     default_url,
@@ -95,7 +96,7 @@ class Store(StoreLog):
         self._versions: dict[str, int] = {}
         self._known_users: set[str] = set()
         self._batch: Connection | None = None  # the transaction corrections share (see batch)
-        self._before: _Before | None = None  # what a batch's users had before it
+        self._before: Before | None = None  # what a batch's users had before it
         self._build = 0  # the build of the tree last loaded
         try:
             if self._own_engine:
@@ -145,7 +146,7 @@ class Store(StoreLog):
         where none is, ``tree`` (the one they were made on) holds none of them either."""
         if self._batch is not None:
             raise StoreError("a batch of corrections is already open")
-        self._before = _Before(tree)
+        self._before = Before(tree)
         try:
             with self._tx() as conn:
                 self._batch = conn
@@ -357,7 +358,7 @@ class Store(StoreLog):
         problem = user_name_problem(user)  # a key of the database: every edge checked it already
         if problem is not None:
             raise NameProblemError(problem)
-        before = _Before(tree)
+        before = Before(tree)
         before.keep(user, self._versions)
         if self._before is not None:  # in a batch: as it was before the batch, if it fails
             self._before.keep(user, self._versions)
@@ -390,37 +391,6 @@ class Store(StoreLog):
         self._versions[user] = version + 1
         self._known_users.add(user)
         return added, rejected
-
-
-class _Before:
-    """What a tree's users had before corrections (their examples, the version this store
-    read, the tree's count of experiences), to put back when the corrections are not stored:
-    memory holds exactly what the database does.
-
-    A user's examples are only appended to, or replaced whole by a reload: the list and its
-    length then are enough, without copying it."""
-
-    def __init__(self, tree: IHDRTree | None) -> None:
-        self.tree = tree
-        self.experiences = None if tree is None else tree.n_experiences
-        self.users: dict[str, tuple[list[Any], int, int | None]] = {}
-
-    def keep(self, user: str, versions: dict[str, int]) -> None:
-        if self.tree is not None and user not in self.users:
-            examples = self.tree.user_examples(user)
-            self.users[user] = (examples, len(examples), versions.get(user))
-
-    def restore(self, versions: dict[str, int]) -> None:
-        if self.tree is None:
-            versions.clear()  # a batch without its tree: what this store believes may not be stored
-            return
-        for user, (examples, n, version) in self.users.items():
-            self.tree.set_user_examples(user, examples[:n])
-            if version is None:
-                versions.pop(user, None)
-            else:
-                versions[user] = version
-        self.tree.n_experiences = self.experiences  # type: ignore[assignment]
 
 
 def _keyed(rows: list[dict[str, Any]], home: str) -> list[dict[str, Any]]:

@@ -38,6 +38,7 @@ from homecog.web import errors
 from homecog.web.deps import require_token, require_token_or_query
 from homecog.web.fastpath import BodyLimit, CognizeFastPath
 from homecog.web.models import HomeModels
+from homecog.web.planner import PLANNER
 from homecog.web.routes import (
     actions,
     cognize,
@@ -77,6 +78,7 @@ def create_app(runtime: Runtime, settings: Settings | None = None, *, fleet: boo
         yield
         if task is not None:
             task.cancel()
+        PLANNER.close()
 
     app = FastAPI(
         title=f"homecog: {runtime.home.name}",

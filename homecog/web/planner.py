@@ -20,6 +20,8 @@ import contextlib
 import multiprocessing
 import os
 import pickle
+import threading
+import time
 from collections import OrderedDict
 from collections.abc import Mapping
 from concurrent.futures import ProcessPoolExecutor
@@ -48,10 +50,18 @@ def _plan_in_worker(key: str, data: bytes, services: list[str], context: Mapping
 
 
 def _behind_the_server() -> None:
-    """The worker yields the processor to the server: an answer waits on no plan, even where
-    the machine has one core for both."""
+    """The worker yields the processor to the server (an answer waits on no plan, even where
+    the machine has one core for both), and ends when the server does, however it ended."""
     with contextlib.suppress(OSError):
         os.nice(10)
+    server = os.getppid()
+
+    def watch() -> None:
+        while os.getppid() == server:
+            time.sleep(1)
+        os._exit(0)
+
+    threading.Thread(target=watch, daemon=True, name="homecog-planner-watch").start()
 
 
 class Planner:
@@ -91,6 +101,12 @@ class Planner:
             while len(self._pickled) > _KEPT:
                 self._pickled.popitem(last=False)
         return kept[1], kept[2]
+
+    def close(self) -> None:
+        """Stop the worker (the server stops); a later plan starts another."""
+        if self._pool is not None:
+            self._pool.shutdown(wait=False, cancel_futures=True)
+            self._pool = None
 
     def _executor(self) -> ProcessPoolExecutor:
         if self._pool is None:

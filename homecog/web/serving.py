@@ -147,21 +147,21 @@ def guarded(app: Any, settings: Settings) -> Any:
     return LoopbackOnly(app) if settings.token is None else app
 
 
-def config(app: Any, settings: Settings, *, host: str, port: int) -> uvicorn.Config:
-    """uvicorn's configuration of ``app`` served with the guards above."""
-    return uvicorn.Config(
-        guarded(app, settings),
-        host=host,
-        port=port,
-        http=timed_protocol(settings.request_timeout),
-        log_level="warning",
-        access_log=False,
-        proxy_headers=False,  # no proxy is trusted: X-Forwarded-For is not the client
-        timeout_keep_alive=5,
-        timeout_graceful_shutdown=1,
-    )
+def options(settings: Settings, *, host: str, port: int) -> dict[str, Any]:
+    """uvicorn's options for serving with the guards above (the app goes through
+    :func:`guarded`)."""
+    return {
+        "host": host,
+        "port": port,
+        "http": timed_protocol(settings.request_timeout),
+        "log_level": "warning",
+        "access_log": False,
+        "proxy_headers": False,  # no proxy is trusted: X-Forwarded-For is not the client
+        "timeout_keep_alive": 5,
+        "timeout_graceful_shutdown": 1,
+    }
 
 
 def run(app: Any, settings: Settings, *, host: str, port: int) -> None:
     """Serve ``app`` until interrupted, with the guards above."""
-    uvicorn.Server(config(app, settings, host=host, port=port)).run()
+    uvicorn.run(guarded(app, settings), **options(settings, host=host, port=port))
