@@ -244,6 +244,6 @@ def test_schemathesis_finds_nothing(studio_built, tmp_path, token):
     cases = suite.iter("testcase")
     names = sorted(c.get("name", "") for c in cases)
     operations = [n for n in names if n != "Stateful tests"]  # and the stateful phase, where it runs
-    assert len(operations) == 11, "\n".join(names)  # every operation
+    assert len(operations) == 12, "\n".join(names)  # every operation
     assert sum(int(s.get("failures", 0)) + int(s.get("errors", 0)) for s in suite.iter("testsuite")) == 0
     assert "No issues found" in run.stdout, run.stdout[-3000:]
