@@ -128,10 +128,10 @@ def serve(app: Any, settings: Any = None) -> Iterator[str]:
     ``settings``, served as ``homecog up`` serves it (:mod:`homecog.web.serving`)."""
     import uvicorn
 
-    from homecog.web.serving import guarded, options
-
     port = free_port()
     if settings is not None:
+        from homecog.web.serving import guarded, options
+
         config = uvicorn.Config(guarded(app, settings), **options(settings, host="127.0.0.1", port=port))
     else:
         config = uvicorn.Config(
