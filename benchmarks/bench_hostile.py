@@ -1,11 +1,15 @@
 """Hostile input (docs/design.md, "Hostile input"): a legitimate client's cognition alone and
-under ten hostile clients, and what each hostile input costs.
+beside ten hostile clients, and what each hostile input costs.
 
 The server is ``homecog serve`` on a database of two learned homes (SQLite by default, or
 ``--db URL``), without a token on 127.0.0.1, in a process of its own; every client is a process
-of its own too. The legitimate client asks ``POST /api/homes/home0/cognize`` with random valid
-contexts, one request after the other, and records each latency: first alone, then while ten
-hostile clients run:
+of its own too. On Linux with two or more cores the server runs on core 0, and the clients (as
+machines of their own would) and the server's planner (niced, in a process of its own) on
+core 1 (taskset). The legitimate client asks
+``POST /api/homes/home0/cognize`` with random valid contexts, 50 a second, and records each
+latency: alone; beside ten hostile clients of 20 requests a second each ("paced"); and, for
+scale, flooding (every client sends its next request as soon as the answer comes) beside ten
+hostile clients and beside ten ordinary ones asking for cognition. The hostile clients:
 
 - three that spell the home otherwise (``HOME0``, ``home0%20``, ``%00``, ``home0%2e``) on the
   schema and on cognition, each request a 404 that used to reload the home;
@@ -27,6 +31,7 @@ import http.client
 import json
 import os
 import random
+import shutil
 import socket
 import statistics
 import subprocess
@@ -42,6 +47,12 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "benchmarks"))
 from homes import home_text  # noqa: E402
 
+# the server on core 0; the clients, as machines of their own would be, and the planner on core 1
+PIN = (
+    (["taskset", "-c", "0"], ["taskset", "-c", "1"])
+    if shutil.which("taskset") and (os.cpu_count() or 1) >= 2
+    else ([], [])
+)
 CONTEXT = "time=10:00,light=50,activity=work,blind=off,desk_lamp=off,radio=off"
 BAD_NAMES = ("HOME0", "Home0", "home0%20", "%00", "home0%2e", "home0%09")
 HOSTILE = (("names", 3), ("slow", 3), ("plans", 3), ("deep", 1))
@@ -151,7 +162,7 @@ def learn(folder: Path, url: str) -> None:
 
 
 def serve(url: str, port: int) -> subprocess.Popen[bytes]:
-    args = [sys.executable, "-m", "homecog.cli.main", "serve", "--db", url, "--port", str(port)]
+    args = [*PIN[0], sys.executable, "-m", "homecog.cli.main", "serve", "--db", url, "--port", str(port)]
     proc = subprocess.Popen(args, cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     for _ in range(600):
         try:
@@ -161,6 +172,11 @@ def serve(url: str, port: int) -> subprocess.Popen[bytes]:
             time.sleep(0.1)
     conn = http.client.HTTPConnection("127.0.0.1", port, timeout=30)
     _ask(conn, "GET", "/api/homes/home0/home")  # loaded before the measures
+    _ask(conn, "POST", "/api/homes/home0/plan", b'{"services": ["SendDrinks"]}')  # the planner started
+    if PIN[0]:  # the planner on the other core: on a machine of two, the server's core is its own
+        for child in _children(proc.pid):
+            for pid in [child, *_children(child)]:
+                os.sched_setaffinity(pid, {1})
     return proc
 
 
@@ -187,7 +203,7 @@ def run_clients(kinds: list[tuple[str, float]], port: int, seconds: float) -> li
     """Clients of these kinds and rates, each a process, at once: what each saw."""
     procs = [
         subprocess.Popen(
-            [sys.executable, __file__, "--client", kind, str(port), str(seconds), str(rate)],
+            [*PIN[1], sys.executable, __file__, "--client", kind, str(port), str(seconds), str(rate)],
             stdout=subprocess.PIPE,
             cwd=ROOT,
         )

@@ -53,7 +53,7 @@ def _behind_the_server() -> None:
     """The worker yields the processor to the server (an answer waits on no plan, even where
     the machine has one core for both), and ends when the server does, however it ended."""
     with contextlib.suppress(OSError):
-        os.nice(10)
+        os.nice(19)
     server = os.getppid()
 
     def watch() -> None:
