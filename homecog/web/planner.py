@@ -38,15 +38,19 @@ _KEPT = 16  # homes a worker keeps unpickled
 _homes: OrderedDict[str, Home] = OrderedDict()  # in the worker
 
 
-def _plan_in_worker(key: str, data: bytes, services: list[str], context: Mapping[str, Any] | None) -> Any:
+def _plan_in_worker(key: str, data: bytes, services: list[str], context: Mapping[str, Any] | None) -> bytes:
+    """The plan as the answer's JSON, checked against its model here: a plan's answer is large
+    (its timeline and trajectory), and checking and writing it cost the server's loop
+    milliseconds that cognition would wait for."""
     from homecog.robot.plans import plan_request
+    from homecog.web.models import PlanOut
 
     home = _homes.get(key)
     if home is None:
         home = _homes[key] = pickle.loads(data)  # bytes this server made from a loaded home
         while len(_homes) > _KEPT:
             _homes.popitem(last=False)
-    return plan_request(home, services, context)
+    return PlanOut.model_validate(plan_request(home, services, context)).model_dump_json().encode()
 
 
 def _behind_the_server() -> None:
@@ -73,7 +77,8 @@ class Planner:
         self._pickled: OrderedDict[int, tuple[Home, str, bytes]] = OrderedDict()
         self._waiting = 0
 
-    async def plan(self, home: Home, services: list[str], context: Mapping[str, Any] | None) -> Any:
+    async def plan(self, home: Home, services: list[str], context: Mapping[str, Any] | None) -> bytes:
+        """The plan's answer as JSON (:class:`~homecog.web.models.PlanOut`)."""
         if self._waiting >= MAX_WAITING:
             raise HTTPException(
                 429,
