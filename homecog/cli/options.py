@@ -54,8 +54,8 @@ PortOption = Annotated[int, typer.Option(min=1, max=65535, help="Port to serve o
 
 def check_readable(path: Path, option: str, what: str, limit: int | None = None) -> None:
     """Fail before the work, with one line naming the option, when ``path`` is no file to read:
-    missing, a folder, a named pipe, a device (``/dev/zero``), or over the size limit (a file
-    of rows' unless given)."""
+    missing, a folder, a named pipe, a device (``/dev/zero``), or over ``limit`` bytes (by
+    default a file of rows' limit, 256 MiB)."""
     from homecog.text_files import ROWS_FILE_LIMIT, check_file
 
     try:
