@@ -19,6 +19,10 @@ class HomeFileError(HomecogError, ValueError):
     """
 
 
+class NameProblemError(HomecogError, ValueError):
+    """A home or user name that is not one (:mod:`homecog.names`)."""
+
+
 class ContextError(HomecogError, ValueError):
     """A context (readings and device states) that does not fit the home."""
 

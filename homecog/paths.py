@@ -1,8 +1,10 @@
-"""Where homecog keeps what it makes: Q tables (and later the knowledge database).
+"""Where homecog keeps what it makes: Q tables and the knowledge databases.
 
 Under the user's data directory (``~/.local/share/homecog`` on Linux), or
-``$HOMECOG_DATA`` when set. Files are named by the home's content hash, so a home that
-changes gets new ones and a Q table is never used for another home.
+``$HOMECOG_DATA`` when set. Files are named by the home's name and content hash, so a home that
+changes gets new ones and a Q table is never used for another home. A home's name is an
+identifier (:mod:`homecog.names`), and :func:`data_file` checks it again: nothing homecog names
+after a home is ever outside the data directory.
 """
 
 from __future__ import annotations
@@ -18,7 +20,9 @@ from typing import BinaryIO
 
 from platformdirs import user_data_path
 
+from homecog.errors import HomeFileError
 from homecog.home.model import Home
+from homecog.names import home_name_problem
 
 
 def data_dir() -> Path:
@@ -27,10 +31,22 @@ def data_dir() -> Path:
     return Path(env).expanduser() if env else user_data_path("homecog", appauthor=False)
 
 
+def data_file(folder: str, home: Home, suffix: str) -> Path:
+    """The file of ``home`` in a folder of the data directory, named by its name and hash.
+
+    >>> from homecog.home import load_home
+    >>> data_file("qtables", load_home("paper"), ".npz").relative_to(data_dir()).parent
+    PosixPath('qtables')
+    """
+    problem = home_name_problem(home.name)
+    if problem is not None:  # a Home made in code, not read from a file: never a path
+        raise HomeFileError(problem)
+    return data_dir() / folder / f"{home.name}-{home.content_hash[:16]}{suffix}"
+
+
 def q_table_path(home: Home, *, joint: bool = False) -> Path:
     """The cached Q tables of a home: learned group by group, or (``joint``) as one table."""
-    suffix = "-joint" if joint else ""
-    return data_dir() / "qtables" / f"{home.name}-{home.content_hash[:16]}{suffix}.npz"
+    return data_file("qtables", home, "-joint.npz" if joint else ".npz")
 
 
 @contextmanager

@@ -76,7 +76,7 @@ ERROR_CASES = [
     pytest.param(["home", "check", "{tmp}"], "{tmp}: is a directory, not a home file", id="check-directory"),
     pytest.param(
         ["home", "check", "{tmp}/bad.yaml"],
-        "{tmp}/bad.yaml: line 1: not valid YAML: expected ',' or ']'",
+        "{tmp}/bad.yaml: line 2: not valid YAML: did not find expected ',' or ']'",
         id="check-not-yaml",
     ),
     pytest.param(
@@ -224,7 +224,7 @@ def test_bad_input_overwrites_nothing(
         (["--home", STUDIO, "--episodes", "abc"], "Invalid value for '--episodes'"),
         (["--home", STUDIO, "--alpha", "0"], "alpha must be in (0, 1]"),
         (["--home", str(files / "overlap.yaml")], f"{files}/overlap.yaml: context.light.bins"),
-        (["--home", str(files / "bad.yaml")], f"{files}/bad.yaml: line 1: not valid YAML"),
+        (["--home", str(files / "bad.yaml")], f"{files}/bad.yaml: line 2: not valid YAML"),
     ]:
         code, out, err = run(capsys, ["train", *argv, "--out", str(q)])
         assert_one_line_error(code, out, err, names)

@@ -128,7 +128,9 @@ BAD = [
         id="bad-device-state",
     ),
     pytest.param(
-        ["cognize", "--context", "time"], "--context: 'time' is not name=value", id="not-name-value"
+        ["cognize", "--context", "time"],
+        "--context: 'time' is malformed: expected name=value",
+        id="not-name-value",
     ),
     pytest.param(
         ["correct", "--context", CTX, "--want", "LampOn,Dance"],

@@ -26,7 +26,7 @@ from servers import (
 )
 from sqlalchemy import func, select
 
-from homecog.errors import ContextError, StoreError
+from homecog.errors import ContextError, NameProblemError, StoreError
 from homecog.home import Home, load_home_text
 from homecog.knowledge.ihdr import IHDRTree
 from homecog.knowledge.pipeline import build
@@ -223,7 +223,7 @@ def test_bad_correction_leaves_the_store_unchanged(
         store.correct(tree, tree.point(WORK), ["LampOn", "NoSuchService"], "alice")
     with pytest.raises(ContextError, match="NoSuchService"):
         store.correct(tree, tree.point(WORK), ["NoSuchService"], "carol")  # a new user
-    with pytest.raises(StoreError, match="--user"):
+    with pytest.raises(NameProblemError, match="the user name is empty"):
         store.correct(tree, tree.point(WORK), ["LampOn"], "")
     assert store.counts() == counts
     assert store.experience_count() == experiences

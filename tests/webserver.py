@@ -123,14 +123,20 @@ def homecog_up(
 
 
 @contextmanager
-def serve(app: Any) -> Iterator[str]:
-    """An ASGI app on uvicorn in a thread, on a free port of 127.0.0.1: its base URL."""
+def serve(app: Any, settings: Any = None) -> Iterator[str]:
+    """An ASGI app on uvicorn in a thread, on a free port of 127.0.0.1: its base URL. With
+    ``settings``, served as ``homecog up`` serves it (:mod:`homecog.web.serving`)."""
     import uvicorn
 
     port = free_port()
-    config = uvicorn.Config(
-        app, host="127.0.0.1", port=port, log_level="warning", timeout_graceful_shutdown=1
-    )
+    if settings is not None:
+        from homecog.web.serving import guarded, options
+
+        config = uvicorn.Config(guarded(app, settings), **options(settings, host="127.0.0.1", port=port))
+    else:
+        config = uvicorn.Config(
+            app, host="127.0.0.1", port=port, log_level="warning", timeout_graceful_shutdown=1
+        )
     server = uvicorn.Server(config)
     thread = threading.Thread(target=server.run, daemon=True)
     thread.start()

@@ -14,6 +14,7 @@ from homecog.cli.options import (
     HomeOption,
     JsonOption,
     UsageProblemError,
+    check_readable,
     check_writable,
     method_names,
     status,
@@ -80,8 +81,9 @@ def eval_command(
             raise UsageProblemError(f"--scenarios must be at least 1, got {cases}")
     else:
         cases = Path(scenarios)
-        if not cases.is_file():
+        if not cases.exists() and not cases.is_symlink():
             raise UsageProblemError(f"--scenarios {scenarios}: no such file (give a number or a CSV file)")
+        check_readable(cases, "--scenarios", "a scenario file")
     if report is not None:
         check_writable(report / "report.md")
     result = run_eval(
@@ -189,13 +191,12 @@ def replay(
     json: JsonOption = False,
 ) -> None:
     """Prequential evaluation: every method predicts each event, then learns it."""
+    check_readable(events, "--events", "an event file")  # before the imports: a second or two
     from homecog.evaluation.replay import replay as run_replay
     from homecog.evaluation.report import write_replay_report
 
     h = load_home(home)
     names = method_names(methods)
-    if not events.is_file():
-        raise UsageProblemError(f"--events {events}: no such file")
     if report is not None:
         check_writable(report / "replay.md")
     if predictions is not None:

@@ -120,16 +120,13 @@ def serve(
     import gc
     import secrets
 
-    import uvicorn
-
     from homecog.cli.up import LOCAL_HOSTS
     from homecog.fleet.serve import Fleet, FleetApp
     from homecog.knowledge.database import redact
+    from homecog.web.serving import run
     from homecog.web.settings import Settings
 
     url = _db(db)
-    if token is not None and len(token) < 8:
-        raise UsageProblemError("--token must be at least 8 characters")
     settings = Settings.of(token=token)
     if host not in LOCAL_HOSTS and settings.token is None:
         settings = settings.model_copy(update={"token": secrets.token_urlsafe(24)})
@@ -141,13 +138,6 @@ def serve(
         stdout.print(f"knowledge: {redact(url)} ({len(names)} homes)", style="dim")
         stdout.print(f"homecog serves {len(names)} homes: http://{shown}:{port}/api/homes")
         gc.freeze()
-        uvicorn.run(
-            FleetApp(fleet),
-            host=host,
-            port=port,
-            log_level="warning",
-            access_log=False,
-            proxy_headers=False,
-        )
+        run(FleetApp(fleet), settings, host=host, port=port)
     finally:
         fleet.close()

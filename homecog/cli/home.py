@@ -11,11 +11,12 @@ from homecog.cli.options import (
     HomeOption,
     JsonOption,
 )
-from homecog.cli.output import big_number, emit_json, stdout
+from homecog.cli.output import emit_json, stdout
 from homecog.cli.render import home_tables
 from homecog.home import Home, load_home
 from homecog.home.content import canonical
 from homecog.home.model import format_number
+from homecog.learning.size import big_number
 
 
 def home_summary(home: Home) -> dict[str, Any]:
@@ -44,13 +45,13 @@ def home_show(home: HomeOption = "paper", json: JsonOption = False) -> None:
     s = home_summary(h)
     stdout.print(f"[bold]{h.name}[/bold] ({h.source}) — {h.description or ''}")
     stdout.print(
-        f"{s['contexts']:,} contexts × 2^{s['devices']} device states = "
+        f"{big_number(s['contexts'])} contexts × 2^{s['devices']} device states = "
         f"{big_number(s['start_states'])} start states; {big_number(s['states'])} states with pending "
         f"needs; hash {h.content_hash[:12]}"
     )
     stdout.print(
-        f"learned in {s['groups']} independent groups, {s['group_states']:,} states in all; the largest, "
-        f"{s['largest_group']}, has {s['largest_group_states']:,}"
+        f"learned in {s['groups']} independent groups, {big_number(s['group_states'])} states in all; "
+        f"the largest, {s['largest_group']}, has {big_number(s['largest_group_states'])}"
     )
 
     for table in home_tables(h):
@@ -66,10 +67,10 @@ def home_check(
     file: Annotated[str, typer.Argument(help="The home file to validate.")], json: JsonOption = False
 ) -> None:
     """Validate a home file; report its size and any start state that cannot reach its optimum."""
+    h = load_home(file)  # before the imports below: a bad file is refused at once
     from homecog.environment.conflicts import find_conflicts
     from homecog.learning.size import check_size, describe
 
-    h = load_home(file)
     size = check_size(h)
     if h.layout is not None:  # every place the robot may be sent to must be reachable
         from homecog.simulation import plan_path
@@ -92,7 +93,7 @@ def home_check(
         return
     stdout.print(
         f"ok: {h.source}: home '{h.name}': {summary['features']} features, "
-        f"{summary['contexts']:,} contexts, {summary['devices']} devices, "
+        f"{big_number(summary['contexts'])} contexts, {summary['devices']} devices, "
         f"{summary['services']} services; {describe(size)}"
     )
     if report.stuck:
@@ -103,7 +104,8 @@ def home_check(
         for c in report.groups:
             example = ", ".join(f"{k}={v}" for k, v in c.example.items())
             stdout.print(
-                f"  {c.group.label}: {c.stuck:,} of its {c.start_states:,} start states, e.g. {example}"
+                f"  {c.group.label}: {big_number(c.stuck)} of its {big_number(c.start_states)} start states, "
+                f"e.g. {example}"
             )
 
 

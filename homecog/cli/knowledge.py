@@ -17,6 +17,7 @@ from homecog.cli.options import (
     JsonOption,
     UsageProblemError,
     UserOption,
+    check_readable,
     status,
 )
 from homecog.cli.output import emit_json, stdout
@@ -147,12 +148,11 @@ def correct(
 
 def _correct_events(events: Path, *, home: str, user: str, db: str | None, batch: int, json: bool) -> None:
     """``correct --events``: the whole file checked, then learned in batches of transactions."""
+    check_readable(events, "--events", "an event file")
     from homecog.cli.output import progress_bar
     from homecog.knowledge.event_file import learn_corrections, read_corrections
 
     h = load_home(home)
-    if not events.is_file():
-        raise UsageProblemError(f"--events {events}: no such file")
     corrections = read_corrections(events, h, user)  # every row checked before the first write
     with _knowledge(h, db) as (store, tree), progress_bar("learning corrections", len(corrections)) as bar:
         result = learn_corrections(store, tree, corrections, batch=batch, progress=bar)

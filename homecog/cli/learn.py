@@ -14,11 +14,13 @@ from homecog.cli.options import (
     HomeOption,
     JsonOption,
     UsageProblemError,
+    check_readable,
     check_writable,
     status,
 )
-from homecog.cli.output import big_number, emit_json, progress_bar, stdout
+from homecog.cli.output import emit_json, progress_bar, stdout
 from homecog.home import load_home
+from homecog.learning.size import big_number
 
 
 class Mode(StrEnum):
@@ -49,6 +51,7 @@ def train(
     json: JsonOption = False,
 ) -> None:
     """Learn the home's services by Sarsa, group by group, and save the Q tables."""
+    h = load_home(home)  # before the imports below: a bad file is refused at once
     from dataclasses import replace
 
     from homecog.learning.grouped import train_policy
@@ -56,7 +59,6 @@ def train(
     from homecog.learning.size import check_size
     from homecog.paths import q_table_path
 
-    h = load_home(home)
     given = {
         "episodes": episodes if joint else None,
         "seed": seed,
@@ -126,8 +128,8 @@ def build(
     from homecog.knowledge.store import Store, redact
 
     h = load_home(home)
-    if q is not None and not q.exists():
-        raise UsageProblemError(f"--q {q}: no such file")
+    if q is not None:
+        check_readable(q, "--q", "a Q table", limit=2**40)
     store = Store(db, h)
     try:
         result = run_build(h, store, q_path=q, mode=mode.value, seed=seed, joint=joint, progress=status)

@@ -12,7 +12,7 @@ from typing import Annotated
 
 import typer
 
-from homecog.cli.options import HomeOption, JsonOption, UsageProblemError, check_writable
+from homecog.cli.options import HomeOption, JsonOption, UsageProblemError, check_readable, check_writable
 from homecog.cli.output import emit_json, stdout
 from homecog.evaluation.log_events import LogEvents
 from homecog.home import load_home
@@ -45,8 +45,7 @@ def events(
     from homecog.evaluation.log_events import convert_log
 
     h = load_home(home)
-    if not log.is_file():
-        raise UsageProblemError(f"--log {log}: {'is a folder' if log.is_dir() else 'no such file'}")
+    check_readable(log, "--log", "a log file")
     check_writable(out)
     result = convert_log(h, log, out, quiet=quiet, exclude_users=exclude_user or ())
     if json:

@@ -9,6 +9,7 @@ from typing import Annotated
 import typer
 
 from homecog.errors import UsageProblemError
+from homecog.names import user_name_problem
 
 __all__ = [
     "ContextOption",
@@ -17,6 +18,7 @@ __all__ = [
     "JsonOption",
     "UsageProblemError",
     "UserOption",
+    "check_readable",
     "check_writable",
     "method_names",
     "status",
@@ -33,9 +35,33 @@ DbOption = Annotated[
 ContextOption = Annotated[
     str, typer.Option("--context", help="name=value for every feature and device, comma-separated.")
 ]
-UserOption = Annotated[str, typer.Option("--user", help="The household member.")]
+
+
+def _user(value: str) -> str:
+    """``--user`` checked as every edge checks a user name (:mod:`homecog.names`)."""
+    problem = user_name_problem(value)
+    if problem is not None:
+        raise UsageProblemError(f"--user: {problem}")
+    return value
+
+
+UserOption = Annotated[
+    str, typer.Option("--user", help="The household member (1 to 64 printable characters).", callback=_user)
+]
 HostOption = Annotated[str, typer.Option(help="Address to serve on; any but 127.0.0.1 needs a token.")]
 PortOption = Annotated[int, typer.Option(min=1, max=65535, help="Port to serve on.")]
+
+
+def check_readable(path: Path, option: str, what: str, limit: int | None = None) -> None:
+    """Fail before the work, with one line naming the option, when ``path`` is no file to read:
+    missing, a folder, a named pipe, a device (``/dev/zero``), or over ``limit`` bytes (by
+    default a file of rows' limit, 256 MiB)."""
+    from homecog.text_files import ROWS_FILE_LIMIT, check_file
+
+    try:
+        check_file(path, what=what, error=UsageProblemError, limit=limit or ROWS_FILE_LIMIT)
+    except UsageProblemError as e:
+        raise UsageProblemError(f"{option} {e}") from None
 
 
 def check_writable(path: Path) -> None:

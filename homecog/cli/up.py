@@ -96,18 +96,15 @@ def up(
     import gc
     import secrets
 
-    import uvicorn
-
     from homecog.context.manual import ManualSource
     from homecog.context.simulated import SimulatedHome
     from homecog.knowledge.pipeline import open_tree
     from homecog.knowledge.store import Store, redact
     from homecog.robot.runtime import Runtime
     from homecog.web.main import create_app
+    from homecog.web.serving import run
     from homecog.web.settings import Settings
 
-    if token is not None and len(token) < 8:
-        raise UsageProblemError("--token must be at least 8 characters")
     if publish is not None and (mqtt is not None or speed == 0):
         raise UsageProblemError("--publish mirrors the simulated home; it needs --speed > 0 and no --mqtt")
     if home_assistant is not None and (mqtt is not None or publish is not None):
@@ -140,7 +137,7 @@ def up(
             raise UsageProblemError(
                 f"--household {truth.source}: not compatible with home '{h.name}': {'; '.join(problems)}"
             )
-    settings = Settings.of(token=token)  # or $HOMECOG_TOKEN
+    settings = Settings.of(token=token)  # or $HOMECOG_TOKEN; refused unless 8 or more ASCII characters
     if host not in LOCAL_HOSTS and settings.token is None:
         settings = settings.model_copy(update={"token": secrets.token_urlsafe(24)})
         stdout.print(f"token for every /api request (shown once): {settings.token}")
@@ -208,14 +205,8 @@ def up(
         say(f"homecog is up: http://{host if ':' not in host else f'[{host}]'}:{port}")
         live = speed if mqtt is None and home_assistant is None else 1.0  # a real home's own clock
         gc.freeze()  # the tree lives as long as the server: keep the collector from walking it
-        uvicorn.run(
-            create_app(runtime, settings.model_copy(update={"live": live})),
-            host=host,
-            port=port,
-            log_level="warning",
-            access_log=False,
-            proxy_headers=False,  # no proxy is trusted: X-Forwarded-For is not the client
-        )
+        settings = settings.model_copy(update={"live": live})
+        run(create_app(runtime, settings), settings, host=host, port=port)
 
 
 def household_settings(

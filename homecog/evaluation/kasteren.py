@@ -47,6 +47,7 @@ from homecog.errors import RealDataError
 from homecog.evaluation.log_events import LogEvents, convert_log
 from homecog.evaluation.log_writer import DEVICE, PRESENCE, LogWriter, camel, slug
 from homecog.home import load_home
+from homecog.text_files import check_file
 
 HOUSES = ("A", "B", "C")
 MONTHS = {
@@ -134,6 +135,7 @@ def parse_time(text: str, path: Path, line: int) -> datetime:
 
 
 def _lines(path: Path) -> list[tuple[int, str]]:
+    check_file(path, what="a data set's file", error=RealDataError)  # a regular file, bounded
     try:
         text = path.read_text(encoding="utf-8", errors="replace")
     except OSError as e:

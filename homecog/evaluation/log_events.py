@@ -53,6 +53,7 @@ from homecog.evaluation.event_stream import EventStream, LogRow, Presence, Reade
 from homecog.home.clock import format_clock, parse_clock
 from homecog.home.log_section import LogDevice, LogFeature, LogMap
 from homecog.home.model import Feature, Home, format_number
+from homecog.text_files import ROWS_FILE_LIMIT, read_text
 
 COLUMNS = ("timestamp", "entity", "state")
 REASONS = (
@@ -200,15 +201,7 @@ def read_log(path: Path) -> tuple[list[LogRow], int, int]:
 
 
 def _text(path: Path) -> str:
-    try:
-        data = path.read_bytes()
-    except OSError as e:
-        raise LogFileError(f"{path}: cannot read: {e.strerror}") from None
-    try:
-        return data.decode("utf-8-sig")
-    except UnicodeDecodeError as e:
-        line = data[: e.start].count(b"\n") + 1
-        raise LogFileError(f"{path}: line {line}: not UTF-8 text") from None
+    return read_text(path, limit=ROWS_FILE_LIMIT, what="a log file", error=LogFileError)
 
 
 def _timestamp(path: Path, line: int, text: str) -> datetime:

@@ -44,6 +44,7 @@ from homecog.errors import RealDataError
 from homecog.evaluation.log_events import convert_log
 from homecog.evaluation.log_writer import ACTIVITY, DEVICE, PRESENCE, LogWriter, camel, slug
 from homecog.home import load_home
+from homecog.text_files import check_file
 
 __all__ = ["behavior_of", "camel", "convert", "illumination", "read_activities", "read_sensors", "slug"]
 
@@ -92,6 +93,7 @@ def _time(day: date, text: str, path: Path, line: int) -> datetime:
 def read_sensors(path: Path) -> dict[str, tuple[str, str]]:
     """sensor id -> (room, object)."""
     out = {}
+    check_file(path, what="a data set's file", error=RealDataError)  # a regular file, bounded
     try:
         with path.open(newline="", encoding="utf-8", errors="replace") as f:
             for line, row in enumerate(csv.reader(f), start=1):
@@ -105,6 +107,7 @@ def read_sensors(path: Path) -> dict[str, tuple[str, str]]:
 
 def read_activities(path: Path) -> list[Activity]:
     """The activities, in blocks of five lines: name,date,start,end / ids / names / on / off."""
+    check_file(path, what="a data set's file", error=RealDataError)  # a regular file, bounded
     try:
         lines = path.read_text(encoding="utf-8", errors="replace").splitlines()
     except OSError as e:

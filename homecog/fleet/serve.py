@@ -22,13 +22,12 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
-import hmac
 import json
 import threading
+import time
 from collections import OrderedDict
 from dataclasses import dataclass
 from typing import Any
-from urllib.parse import unquote
 
 from sqlalchemy import select
 from sqlalchemy.engine import Connection
@@ -42,7 +41,10 @@ from homecog.knowledge.database import db_message, make_engine
 from homecog.knowledge.schema import HomeRow
 from homecog.knowledge.store import Store, migrate
 from homecog.knowledge.store_log import stored_homes
+from homecog.names import home_name_problem, shown
 from homecog.robot.runtime import Runtime
+from homecog.web.deps import authorized as is_authorized
+from homecog.web.planner import PLANNER
 from homecog.web.settings import Settings
 
 READ = ("GET", "HEAD")  # the methods of the list of homes and of the schemas
@@ -71,6 +73,7 @@ class Fleet:
         self._entries: OrderedDict[str, Entry] = OrderedDict()
         self._loading = threading.Lock()
         self._conn: Connection | None = None  # autocommit, the version reads' own (a server's)
+        self._listed: tuple[float, list[str]] | None = None  # when, the homes (for a 404)
         try:
             migrate(self.engine)
         except (SQLAlchemyError, DBAPIError, OSError) as e:
@@ -90,6 +93,17 @@ class Fleet:
                 return [name for name, _, built in stored_homes(conn) if built]
         except (SQLAlchemyError, DBAPIError) as e:
             raise StoreError(db_message(self.url, e)) from None
+
+    def unknown(self, name: str) -> str:
+        """Why ``name`` is no home here: the homes the database holds (read at most once a
+        second: a client asking for names the database lacks costs no query of its own)."""
+        now = time.monotonic()
+        if self._listed is None or now - self._listed[0] > 1.0:
+            self._listed = (now, self.names())
+        names = self._listed[1]
+        return f"unknown home {shown(name)}; the database holds " + (
+            ", ".join(repr(n) for n in names) if names else "no home yet (homecog fleet train)"
+        )
 
     def entry(self, name: str) -> Entry:
         """The home's entry, from the cache or loaded (:class:`UnknownHomeError` naming the homes
@@ -112,16 +126,12 @@ class Fleet:
         try:
             with self.engine.connect() as conn:
                 row = conn.execute(
-                    select(HomeRow.source, HomeRow.built_at).where(HomeRow.name == name)
+                    select(HomeRow.name, HomeRow.source, HomeRow.built_at).where(HomeRow.name == name)
                 ).first()
         except (SQLAlchemyError, DBAPIError) as e:
             raise StoreError(db_message(self.url, e)) from None
-        if row is None or row.built_at is None:
-            names = self.names()
-            raise UnknownHomeError(
-                f"unknown home {name!r}; the database holds "
-                + (", ".join(repr(n) for n in names) if names else "no home yet (homecog fleet train)")
-            )
+        if row is None or row.built_at is None or row.name != name:
+            raise UnknownHomeError(self.unknown(name))
         if row.source is None:
             raise FleetError(
                 f"home {name!r} was built without its home file; learn it with homecog fleet train"
@@ -159,6 +169,7 @@ class Fleet:
                         self._conn = None
                     if attempt:
                         raise StoreError(db_message(self.url, e)) from None
+        # keyed by the names as stored: another spelling the database matched is no home
         return {name: (version, build) for name, version, build in rows}
 
     def refresh(self, entry: Entry, version: tuple[int, int]) -> None:
@@ -236,13 +247,15 @@ class FleetApp:
             return await _answer(send, 200, self.schema)
         name, rest = None, ""
         if path.startswith(PREFIX + "/"):
-            name, _, rest = path[len(PREFIX) + 1 :].partition("/")
-            name = unquote(name)
+            name, _, rest = path[len(PREFIX) + 1 :].partition("/")  # the path is decoded already
         schema_asked = name is not None and rest == HOME_SCHEMA
-        authorized = self._authorized(scope)
+        authorized = is_authorized(scope["headers"], self.token, method)
         if path.startswith("/api") and not authorized and not schema_asked:
             detail = "this server needs its token: Authorization: Bearer <token>"
             return await _answer(send, 401, {"detail": detail}, [(b"www-authenticate", b"Bearer")])
+        problem = None if name is None else home_name_problem(name)
+        if problem is not None:  # one spelling per home, and never a NUL byte for the database
+            return await _answer(send, 404, {"detail": problem})
         try:
             if path in (PREFIX, PREFIX + "/"):
                 if method not in READ:
@@ -256,7 +269,11 @@ class FleetApp:
                 return await _not_allowed(send, method)
             entry = await self._fresh(name)
         except UnknownHomeError as e:  # the names only to who has the token
-            return await _answer(send, 404, {"detail": str(e) if authorized else f"unknown home {name!r}"})
+            detail = str(e)
+            if authorized:
+                with contextlib.suppress(HomecogError):
+                    detail = await asyncio.to_thread(self.fleet.unknown, name)  # type: ignore[arg-type]
+            return await _answer(send, 404, {"detail": detail})
         except StoreError as e:
             return await _answer(send, 503, {"detail": f"the knowledge database cannot be used: {e}"})
         except HomecogError as e:
@@ -270,29 +287,25 @@ class FleetApp:
         return await entry.app(scope, receive, send)
 
     async def _fresh(self, name: str) -> Entry:
-        """The home's entry, loaded if need be, and up to the database's version."""
+        """The home's entry, loaded if need be, and up to the database's version. Its version
+        first: a name the database lacks (or holds under another spelling) costs one batched
+        lookup, never a load."""
         fleet = self.fleet
-        entry = fleet._entries.get(name)
-        if entry is None:
-            entry = await asyncio.to_thread(fleet.entry, name)
-        else:
-            with contextlib.suppress(KeyError):  # evicted by a load in another thread meanwhile
-                fleet._entries.move_to_end(name)
         version = await self.versions.of(name)
-        if version is None or entry.version is None or version[1] != entry.version[1]:
-            # gone (the load raises, naming the homes there are), or built again, perhaps from
-            # another home file: the home, its models and its tree are read anew
+        if version is None:
             fleet.forget(name)
-            entry = await asyncio.to_thread(fleet.entry, name)
-        elif version != entry.version:
+            raise UnknownHomeError(f"unknown home {shown(name)}")
+        entry = fleet._entries.get(name)
+        if entry is None or entry.version is None or version[1] != entry.version[1]:
+            # not loaded yet, or built again (perhaps from another home file): the home, its
+            # models and its tree are read anew, after the version read
+            fleet.forget(name)
+            return await asyncio.to_thread(fleet.entry, name)
+        with contextlib.suppress(KeyError):  # evicted by a load in another thread meanwhile
+            fleet._entries.move_to_end(name)
+        if version != entry.version:
             await asyncio.to_thread(fleet.refresh, entry, version)
         return entry
-
-    def _authorized(self, scope: dict[str, Any]) -> bool:
-        if self.token is None:
-            return True
-        scheme, _, given = dict(scope["headers"]).get(b"authorization", b"").partition(b" ")
-        return scheme.lower() == b"bearer" and hmac.compare_digest(given.strip(), self.token)
 
 
 async def _answer(
@@ -326,5 +339,6 @@ async def _lifespan(receive: Any, send: Any) -> None:
         if message["type"] == "lifespan.startup":
             await send({"type": "lifespan.startup.complete"})
         elif message["type"] == "lifespan.shutdown":
+            PLANNER.close()
             await send({"type": "lifespan.shutdown.complete"})
             return

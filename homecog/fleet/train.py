@@ -20,11 +20,12 @@ from collections.abc import Callable, Iterator
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
-from homecog.errors import FleetError, HomecogError, StoreError
+from homecog.errors import FleetError, HomecogError, HomeFileError, StoreError
 from homecog.home.loader import load_home_text
 from homecog.knowledge.database import db_message, make_engine, redact
 from homecog.knowledge.store import Store, migrate
 from homecog.knowledge.store_log import stored_homes
+from homecog.text_files import HOME_FILE_LIMIT, read_text
 
 QUIET = {"log_to_driver": False, "logging_level": "ERROR", "configure_logging": False}
 RAY_HINT = "Ray is not installed; install it with pip install 'homecog[fleet]' (or use --serial)"
@@ -69,7 +70,7 @@ def learn_home(path: str, url: str, seed: int = 0) -> HomeResult:
     start = time.perf_counter()
     result = HomeResult(file=Path(path).name)
     try:
-        text = Path(path).read_text(encoding="utf-8")
+        text = read_text(Path(path), limit=HOME_FILE_LIMIT, what="a home file", error=HomeFileError)
         home = load_home_text(text, Path(path).name)
         result.home = home.name
         trained = train_policy(home, SarsaConfig(seed=seed), workers=1)
@@ -115,7 +116,8 @@ def plan(files: list[Path], url: str) -> tuple[list[Path], list[HomeResult]]:
     todo, done = [], []
     for path in files:
         try:
-            home = load_home_text(path.read_text(encoding="utf-8"), path.name)
+            text = read_text(path, limit=HOME_FILE_LIMIT, what="a home file", error=HomeFileError)
+            home = load_home_text(text, path.name)
         except (HomecogError, OSError, UnicodeDecodeError) as e:
             error = str(e) if isinstance(e, HomecogError) else f"{path.name}: {e}"
             done.append(HomeResult(file=path.name, status="failed", error=error))

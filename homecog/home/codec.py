@@ -32,6 +32,7 @@ from homecog.home.clock import format_clock, parse_clock
 from homecog.home.model import Feature, Home, format_number
 from homecog.home.recent import Recent
 from homecog.home.states import STATE_WORDS, parse_state
+from homecog.names import shown
 
 
 @dataclass(frozen=True)
@@ -227,9 +228,9 @@ def parse_context(text: str, space: Space) -> Point:
         part = part.strip()
         if not part:
             continue
-        if "=" not in part:
-            raise ContextError(f"--context: {part!r} is not name=value")
-        name, value = (s.strip() for s in part.split("=", 1))
+        name, equals, value = (s.strip() for s in part.partition("="))
+        if not equals or not name:
+            raise ContextError(f"--context: {shown(part)} is malformed: expected name=value")
         if name in pairs:
             raise ContextError(f"--context: {name} given twice")
         pairs[name] = value

@@ -5,6 +5,11 @@ read with YAML 1.2 booleans (only true/false; a bare ``on``, ``off``, ``yes`` or
 string), without base-60 numbers (``19:00`` stays a string, not 1140) and with an error on a
 duplicate key, where PyYAML would silently keep the last.
 
+A home file is bounded (docs/design.md, "Hostile input"): at most 1 MiB, read only where it is
+a regular file (:mod:`homecog.text_files`); at most :data:`MAX_DEPTH` levels deep and
+:data:`MAX_NODES` values, aliases counted as what they stand for, so an alias bomb is refused
+before it is expanded, and an alias inside the node it names too.
+
 >>> "paper" in builtin_homes()
 True
 >>> read_yaml("window: on\\nat: 19:00", "den.yaml")
@@ -19,14 +24,77 @@ from pathlib import Path
 from typing import Any
 
 import yaml
+from yaml.composer import Composer, ComposerError
+from yaml.constructor import SafeConstructor
+from yaml.events import AliasEvent
+from yaml.nodes import Node
+from yaml.resolver import Resolver
 
 from homecog.errors import HomeFileError
+from homecog.names import shown
+from homecog.text_files import HOME_FILE_LIMIT, read_text, size_text
+
+try:  # libyaml's parser where PyYAML has it: twice as fast as the pure Python one
+    from yaml._yaml import CParser as _Parser
+except ImportError:  # pragma: no cover - PyYAML without libyaml
+
+    class _Parser(yaml.reader.Reader, yaml.scanner.Scanner, yaml.parser.Parser):  # type: ignore[no-redef]
+        def __init__(self, stream: str) -> None:
+            yaml.reader.Reader.__init__(self, stream)
+            yaml.scanner.Scanner.__init__(self)
+            yaml.parser.Parser.__init__(self)
+
 
 BUILTIN_PACKAGE = "homecog.home.homes"
+MAX_DEPTH = 32  # levels of nesting; a home file needs 8
+MAX_NODES = 100_000  # values, aliases expanded; the 1,002-device home has 56,162
 
 
-class _Loader(yaml.SafeLoader):
-    """SafeLoader with YAML 1.2 booleans and an error on duplicate keys."""
+class _BoundedComposer(Composer):
+    """PyYAML's composer, refusing a document nested deeper than :data:`MAX_DEPTH` or of more
+    than :data:`MAX_NODES` values once its aliases are expanded, as it composes it."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self._depth = self._deepest = self._count = 0
+        self._sizes: dict[int, tuple[int, int]] = {}  # id(node) -> (values, height), aliases expanded
+
+    def compose_node(self, parent: Node | None, index: object) -> Node:
+        if self.check_event(AliasEvent):
+            mark = self.peek_event().start_mark
+            node = super().compose_node(parent, index)
+            size = self._sizes.get(id(node))
+            if size is None:
+                raise ComposerError(None, None, "an alias inside the node it names", mark)
+            self._grow(size[0], self._depth + size[1], mark)
+            return node
+        mark = self.peek_event().start_mark
+        self._depth += 1
+        outer, start = self._deepest, self._count
+        self._grow(1, self._depth, mark)
+        node = super().compose_node(parent, index)
+        self._sizes[id(node)] = (self._count - start, self._deepest - self._depth + 1)
+        self._deepest = max(outer, self._deepest)
+        self._depth -= 1
+        return node
+
+    def _grow(self, values: int, depth: int, mark: Any) -> None:
+        self._count += values
+        self._deepest = max(self._deepest, depth)
+        if depth > MAX_DEPTH:
+            raise ComposerError(None, None, f"nested deeper than {MAX_DEPTH} levels", mark)
+        if self._count > MAX_NODES:
+            raise ComposerError(None, None, f"more than {MAX_NODES:,} values (aliases expanded)", mark)
+
+
+class _Loader(_BoundedComposer, _Parser, SafeConstructor, Resolver):
+    """A safe loader with YAML 1.2 booleans, an error on duplicate keys, and bounds."""
+
+    def __init__(self, stream: str) -> None:
+        _Parser.__init__(self, stream)
+        _BoundedComposer.__init__(self)
+        SafeConstructor.__init__(self)
+        Resolver.__init__(self)
 
     def construct_mapping(self, node: yaml.MappingNode, deep: bool = False) -> dict[Any, Any]:
         seen: set[Any] = set()
@@ -68,27 +136,38 @@ def resolve_home(name_or_path: str | Path) -> tuple[str, str]:
         res = resources.files(BUILTIN_PACKAGE).joinpath(f"{text}.yaml")
         return f"{text}.yaml", res.read_text(encoding="utf-8")
     path = Path(name_or_path)
-    looks_like_path = path.suffix in (".yaml", ".yml") or "/" in text or path.exists()
+    looks_like_path = path.suffix in (".yaml", ".yml") or "/" in text or _exists(path)
     if not looks_like_path:
         raise HomeFileError(
-            f"unknown home {text!r}; built-in homes: {', '.join(builtin_homes())}, "
+            f"unknown home {shown(text)}; built-in homes: {', '.join(builtin_homes())}, "
             "or give the path of a YAML file"
         )
+    return text, read_text(path, limit=HOME_FILE_LIMIT, what="a home file", error=HomeFileError)
+
+
+def _exists(path: Path) -> bool:
     try:
-        return str(name_or_path), path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise HomeFileError(f"{text}: no such file") from None
-    except IsADirectoryError:
-        raise HomeFileError(f"{text}: is a directory, not a home file") from None
-    except (OSError, UnicodeDecodeError) as e:
-        reason = e.strerror if isinstance(e, OSError) and e.strerror else str(e)
-        raise HomeFileError(f"{text}: cannot read: {reason}") from None
+        return path.exists()
+    except (OSError, ValueError):  # a name too long, or with a NUL
+        return False
 
 
 def read_yaml(text: str, source: str) -> Any:
-    """The parsed YAML of a home file; :class:`HomeFileError` naming ``source`` and the line."""
+    """The parsed YAML of a home file; :class:`HomeFileError` naming ``source`` and the line.
+
+    >>> read_yaml("a: &a [x, x, x]\\nb: &b [*a, *a, *a]\\nc: [*b, *b]", "den.yaml")["c"][1][2]
+    ['x', 'x', 'x']
+    >>> read_yaml("[" * 40 + "]" * 40, "den.yaml")
+    Traceback (most recent call last):
+    ...
+    homecog.errors.HomeFileError: den.yaml: line 1: not valid YAML: nested deeper than 32 levels
+    """
+    if len(text) > HOME_FILE_LIMIT:
+        raise HomeFileError(f"{source}: over the {size_text(HOME_FILE_LIMIT)} a home file may have")
+    if "\0" in text:
+        raise HomeFileError(f"{source}: a NUL character; a home file is text")
     try:
-        return yaml.load(text, Loader=_Loader)  # _Loader is a SafeLoader
+        return yaml.load(text, Loader=_Loader)  # a safe loader: plain data only
     except yaml.YAMLError as e:
         mark = getattr(e, "problem_mark", None) or getattr(e, "context_mark", None)
         where = f"line {mark.line + 1}: " if mark is not None else ""

@@ -34,6 +34,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from homecog.errors import HomeFileError
+from homecog.names import user_name_problem
 
 KINDS = ("explicit", "observed", "undo")
 #: a correction told is a whole set; a person's switch, or an undo, speaks of one service and is
@@ -101,14 +102,17 @@ def parse_household(section: object, fail: Callable[[str, str], HomeFileError] =
         weights[kind] = w
     users = section.get("users")
     if users is not None:
-        if not isinstance(users, dict) or not all(
-            isinstance(k, str) and _is_user(v) for k, v in users.items()
-        ):
+        if not isinstance(users, dict) or not all(isinstance(k, str) for k in users):
             raise fail("household.users", "expected a mapping of people's ids to homecog user names")
+        for person, name in users.items():
+            problem = user_name_problem(name)
+            if problem is not None:
+                raise fail(f"household.users.{person}", problem)
         users = {str(k): str(v) for k, v in users.items()}
     default = section.get("default_user", out.default_user)
-    if not _is_user(default):
-        raise fail("household.default_user", f"{default!r}; expected a name of 1 to 200 characters")
+    problem = user_name_problem(default)
+    if problem is not None:
+        raise fail("household.default_user", problem)
     return Household(
         undo_window=minutes.get("undo_window", out.undo_window),
         hold=minutes.get("hold", out.hold),
@@ -125,7 +129,3 @@ def _minutes(value: object, path: str, fail: Callable[[str, str], HomeFileError]
         )
         raise fail(path, f"{shown} minutes; expected 0 to 1440")
     return float(value) * 60
-
-
-def _is_user(value: object) -> bool:
-    return isinstance(value, str) and 0 < len(value) <= 200 and "\x00" not in value

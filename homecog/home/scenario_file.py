@@ -30,6 +30,8 @@ from homecog.errors import ContextError, EvaluationError
 from homecog.home.codec import Point, Space, is_missing, parse_services
 from homecog.home.model import Home
 from homecog.home.states import parse_state
+from homecog.names import user_name_problem
+from homecog.text_files import text_lines
 
 
 @dataclass(frozen=True)
@@ -82,72 +84,88 @@ def load_scenarios(
     household member of each row in a ``user`` column.
     """
     space = Space(home)
-    needed = list(space.names)
-    try:
-        handle = path.open(newline="", encoding="utf-8")
-    except OSError as e:
-        raise EvaluationError(f"{path}: cannot read: {e.strerror}") from None
-    out = []
-    with handle:
-        reader = csv.DictReader(handle)
-        header = reader.fieldnames or []
-        if not header:
-            raise EvaluationError(f"{path}: empty file; expected a header with {', '.join(needed)}")
-        required = [*needed, "timestamp"] if events or corrections else needed
-        missing = [c for c in [*required, *(["services"] if corrections else [])] if c not in header]
-        if missing:
-            raise EvaluationError(f"{path}: line 1: missing column(s) {', '.join(missing)}")
-        if (events or corrections) and header[0] != "timestamp":
-            raise EvaluationError(f"{path}: line 1: the first column must be timestamp")
-        extra = ("services", "timestamp", *(["user"] if corrections else []))
-        unknown = [c for c in header if c not in needed and c not in extra]
-        if unknown:
-            raise EvaluationError(f"{path}: line 1: unknown column(s) {', '.join(unknown)}")
-        for line, row in enumerate(reader, start=2):
-            if None in row or any(row.get(c) is None for c in needed):
-                raise EvaluationError(f"{path}: line {line}: expected {len(header)} fields")
-            for j, name in enumerate(needed):
-                value = row[name].strip()
-                try:
-                    if j < space.n_features:
-                        if not is_missing(home.features[j], value):
-                            home.features[j].discretize(value)
-                    else:
-                        parse_state(value, name)
-                except ContextError as e:
-                    raise EvaluationError(f"{path}: line {line}, column {name}: {e}") from None
-            timestamp = _check_timestamp(path, line, row["timestamp"]) if events or corrections else None
-            user = (row.get("user") or "").strip() or None
-            if user is not None and len(user) > 200:
-                raise EvaluationError(f"{path}: line {line}, column user: longer than 200 characters")
-            context = {name: row[name].strip() for name in needed}
-            point = space.point(context)
-            if row.get("services") is not None:
-                try:
-                    wanted = parse_services(row["services"].replace(";", ","), truth)
-                except ContextError as e:
-                    raise EvaluationError(f"{path}: line {line}, column services: {e}") from None
-                truth_set, ambiguous = frozenset(wanted), ()
-            elif point.missing:
-                name = home.features[min(point.missing)].name
-                raise EvaluationError(
-                    f"{path}: line {line}, column {name}: a missing reading needs a services column "
-                    "(the truth home cannot say what is wanted where a reading is unknown)"
-                )
-            else:
-                truth_set, ambiguous = truth_of(truth, point)
-            out.append(
-                Scenario(
-                    context=context,
-                    point=point,
-                    truth=truth_set,
-                    choices=ambiguous,
-                    user=user,
-                    timestamp=timestamp,
-                )
-            )
+    what = "an event file" if events or corrections else "a scenario file"
+    with text_lines(path, what=what, error=EvaluationError) as lines:
+        reader = csv.DictReader(lines)
+        try:
+            out = _rows(path, reader, space, home, truth, events=events, corrections=corrections)
+        except csv.Error as e:  # a quoted cell that never ends, or over the field limit
+            raise EvaluationError(f"{path}: line {reader.line_num}: not CSV: {e}") from None
     if not out:
         raise EvaluationError(f"{path}: no rows after the header")
+    return out
+
+
+def _rows(
+    path: Path,
+    reader: csv.DictReader[str],
+    space: Space,
+    home: Home,
+    truth: Home,
+    *,
+    events: bool,
+    corrections: bool,
+) -> list[Scenario]:
+    """The rows of a scenario or event file, each checked."""
+    needed = list(space.names)
+    out = []
+    header = reader.fieldnames or []
+    if not header:
+        raise EvaluationError(f"{path}: empty file; expected a header with {', '.join(needed)}")
+    required = [*needed, "timestamp"] if events or corrections else needed
+    missing = [c for c in [*required, *(["services"] if corrections else [])] if c not in header]
+    if missing:
+        raise EvaluationError(f"{path}: line 1: missing column(s) {', '.join(missing)}")
+    if (events or corrections) and header[0] != "timestamp":
+        raise EvaluationError(f"{path}: line 1: the first column must be timestamp")
+    extra = ("services", "timestamp", *(["user"] if corrections else []))
+    unknown = [c for c in header if c not in needed and c not in extra]
+    if unknown:
+        raise EvaluationError(f"{path}: line 1: unknown column(s) {', '.join(unknown)}")
+    for line, row in enumerate(reader, start=2):
+        if None in row or any(row.get(c) is None for c in needed):
+            raise EvaluationError(f"{path}: line {line}: expected {len(header)} fields")
+        for j, name in enumerate(needed):
+            value = row[name].strip()
+            try:
+                if j < space.n_features:
+                    if not is_missing(home.features[j], value):
+                        home.features[j].discretize(value)
+                else:
+                    parse_state(value, name)
+            except ContextError as e:
+                raise EvaluationError(f"{path}: line {line}, column {name}: {e}") from None
+        timestamp = _check_timestamp(path, line, row["timestamp"]) if events or corrections else None
+        user = (row.get("user") or "").strip() or None  # a blank cell: the command's --user
+        problem = None if user is None else user_name_problem(user)
+        if problem is not None:
+            raise EvaluationError(f"{path}: line {line}, column user: {problem}")
+        context = {name: row[name].strip() for name in needed}
+        point = space.point(context)
+        if row.get("services") is not None:
+            try:
+                wanted = parse_services(row["services"].replace(";", ","), truth)
+            except ContextError as e:
+                raise EvaluationError(f"{path}: line {line}, column services: {e}") from None
+            truth_set, ambiguous = frozenset(wanted), ()
+        elif point.missing:
+            name = home.features[min(point.missing)].name
+            raise EvaluationError(
+                f"{path}: line {line}, column {name}: a missing reading needs a services column "
+                "(the truth home cannot say what is wanted where a reading is unknown)"
+            )
+        else:
+            truth_set, ambiguous = truth_of(truth, point)
+        out.append(
+            Scenario(
+                context=context,
+                point=point,
+                truth=truth_set,
+                choices=ambiguous,
+                user=user,
+                timestamp=timestamp,
+            )
+        )
     return out
 
 

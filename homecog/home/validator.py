@@ -24,6 +24,7 @@ from homecog.home.model import Device, Home, Rewards, Service, format_number
 from homecog.home.routine import parse_routine
 from homecog.home.rule_sections import RuleSections
 from homecog.home.shapes import parse_device_state
+from homecog.names import home_name_problem
 
 _SECTIONS = (
     "name",
@@ -56,8 +57,9 @@ class HomeValidator(ContextSection, RuleSections):
             if key not in data:
                 raise self.fail("", f"missing section '{key}'")
         name = data["name"]
-        if not isinstance(name, str) or not name.strip():
-            raise self.fail("name", f"expected a non-empty string, got {name!r}")
+        problem = home_name_problem(name)
+        if problem is not None:  # it names files and rows: never a path (homecog.names)
+            raise self.fail("name", problem)
         description = data.get("description")
         if description is not None and not isinstance(description, str):
             raise self.fail("description", "expected a string")
@@ -85,7 +87,7 @@ class HomeValidator(ContextSection, RuleSections):
             )
 
         home = Home(
-            name=name.strip(),
+            name=name,
             features=features,
             devices=devices,
             services=services,

@@ -17,7 +17,7 @@ from sqlalchemy.exc import ArgumentError, DBAPIError, NoSuchModuleError
 
 from homecog.errors import StoreError
 from homecog.home.model import Home
-from homecog.paths import data_dir
+from homecog.paths import data_file
 
 CONNECT_TIMEOUT = 10  # seconds to wait for a database server (unless the URL says connect_timeout)
 
@@ -30,12 +30,18 @@ def is_conflict(e: DBAPIError) -> bool:
     return code == 1213 or getattr(orig, "sqlstate", None) in ("40P01", "40001")
 
 
-def default_url(home: Home) -> str:
-    """``$HOMECOG_DB`` or a SQLite file under the data directory, one per home."""
+def default_url(home: Home, *, create: bool = False) -> str:
+    """``$HOMECOG_DB`` or a SQLite file under the data directory, one per home; ``create``:
+    make its folder (the data directory's own, the only folder homecog makes for a database)."""
     env = os.environ.get("HOMECOG_DB")
     if env:
         return env
-    path = data_dir() / "knowledge" / f"{home.name}-{home.content_hash[:16]}.sqlite"
+    path = data_file("knowledge", home, ".sqlite")
+    if create:
+        try:
+            path.parent.mkdir(parents=True, exist_ok=True)
+        except OSError as e:
+            raise StoreError(f"{path.parent}: cannot make the data directory: {e.strerror}") from None
     return f"sqlite:///{path}"
 
 
@@ -53,9 +59,11 @@ def make_engine(url: str) -> Engine:
     """An engine for a URL; SQLite gets WAL, a busy timeout and immediate write transactions."""
     try:
         if url.startswith("sqlite"):
-            path = url.split("///", 1)[1] if "///" in url else ""
-            if path and path != ":memory:":
-                Path(path).parent.mkdir(parents=True, exist_ok=True)
+            path = url.split("///", 1)[1].split("?", 1)[0] if "///" in url else ""
+            if path and path != ":memory:" and not path.startswith("file:"):
+                folder = Path(path).parent
+                if not folder.is_dir():  # made by whoever chose it, never here (nor /nonexist/)
+                    raise StoreError(f"--db {redact(url)}: no folder {folder}; make it first")
             engine = create_engine(url, connect_args={"timeout": 60})
 
             @event.listens_for(engine, "connect")

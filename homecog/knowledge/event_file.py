@@ -25,6 +25,7 @@ from homecog.home.model import Home
 from homecog.home.recent import RecentPast
 from homecog.home.scenario_file import load_scenarios
 from homecog.knowledge.ihdr import IHDRTree
+from homecog.names import user_name_problem
 
 #: Corrections to a transaction.
 BATCH = 100
@@ -68,8 +69,9 @@ class EventsLearned:
 def read_corrections(path: Path, home: Home, user: str) -> list[EventCorrection]:
     """Every row of an event file as a correction, all checked before any is learned; each
     with the recent past of the household's stream, in the file's order, as a replay has it."""
-    if not user or len(user) > 200:
-        raise EvaluationError("--user must be 1 to 200 characters")
+    problem = user_name_problem(user)
+    if problem is not None:
+        raise EvaluationError(f"--user: {problem}")
     order = {name: a for a, name in enumerate(home.service_names)}
     past = RecentPast(home)
     out = []
@@ -97,7 +99,7 @@ def learn_corrections(
     out = EventsLearned(events=len(corrections))
     for first in range(0, len(corrections), batch):
         chunk = corrections[first : first + batch]
-        with store.batch():
+        with store.batch(tree):
             for c in chunk:
                 added, rejected = store.correct(tree, c.point, c.want, c.user)
                 out.added += len(added)

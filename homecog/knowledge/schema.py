@@ -31,9 +31,13 @@ from sqlalchemy import (
 from sqlalchemy.dialects import mysql
 from sqlalchemy.orm import DeclarativeBase, Mapped, mapped_column
 
-SCHEMA_VERSION = "0003"
+SCHEMA_VERSION = "0004"
 _LongBlob = LargeBinary().with_variant(mysql.LONGBLOB(), "mysql", "mariadb")
 _LongText = Text().with_variant(mysql.LONGTEXT(), "mysql", "mariadb")
+# a home's or a user's name: compared exactly everywhere, on MariaDB too (migration 0004)
+_Name = String(200).with_variant(
+    mysql.VARCHAR(200, charset="utf8mb4", collation="utf8mb4_bin"), "mysql", "mariadb"
+)
 
 
 class Base(DeclarativeBase):
@@ -46,7 +50,7 @@ class HomeRow(Base):
     version that moves on every write (build, correction) so servers see staleness cheaply."""
 
     __tablename__ = "homes"
-    name: Mapped[str] = mapped_column(String(200), primary_key=True)
+    name: Mapped[str] = mapped_column(_Name, primary_key=True)
     content_hash: Mapped[str] = mapped_column(String(64))
     mode: Mapped[str] = mapped_column(String(16))
     built_at: Mapped[datetime | None] = mapped_column(DateTime, nullable=True)
@@ -64,7 +68,7 @@ class NodeRow(Base):
     __table_args__ = (
         ForeignKeyConstraint(["home", "parent_id"], ["nodes.home", "nodes.id"], name="fk_nodes_parent"),
     )
-    home: Mapped[str] = mapped_column(String(200), primary_key=True)
+    home: Mapped[str] = mapped_column(_Name, primary_key=True)
     id: Mapped[int] = mapped_column(Integer, primary_key=True, autoincrement=False)
     parent_id: Mapped[int | None] = mapped_column(Integer, nullable=True)
     name: Mapped[str] = mapped_column(String(200))
@@ -84,9 +88,9 @@ class ClusterRow(Base):
         Index("ix_clusters_home_user", "home", "user"),
     )
     id: Mapped[int] = mapped_column(Integer, primary_key=True)
-    home: Mapped[str] = mapped_column(String(200))
+    home: Mapped[str] = mapped_column(_Name)
     node_id: Mapped[int] = mapped_column(Integer)
-    user: Mapped[str | None] = mapped_column(String(200), nullable=True)
+    user: Mapped[str | None] = mapped_column(_Name, nullable=True)
     tree_id: Mapped[int] = mapped_column(BigInteger)
     polarity: Mapped[int] = mapped_column(Integer)
     conditions: Mapped[str] = mapped_column(_LongText)
@@ -100,8 +104,8 @@ class UserRow(Base):
     """A household member of a home: the lock their corrections take, and a version for caches."""
 
     __tablename__ = "users"
-    home: Mapped[str] = mapped_column(String(200), primary_key=True)
-    name: Mapped[str] = mapped_column(String(200), primary_key=True)
+    home: Mapped[str] = mapped_column(_Name, primary_key=True)
+    name: Mapped[str] = mapped_column(_Name, primary_key=True)
     version: Mapped[int] = mapped_column(BigInteger, default=0)
     corrections: Mapped[int] = mapped_column(BigInteger, default=0)
 
@@ -112,9 +116,9 @@ class ExperienceRow(Base):
     __tablename__ = "experiences"
     __table_args__ = (Index("ix_experiences_home_kind_user_id", "home", "kind", "user", "id"),)
     id: Mapped[int] = mapped_column(Integer, primary_key=True, autoincrement=True)
-    home: Mapped[str] = mapped_column(String(200))
+    home: Mapped[str] = mapped_column(_Name)
     kind: Mapped[str] = mapped_column(String(16))
-    user: Mapped[str | None] = mapped_column(String(200), nullable=True)
+    user: Mapped[str | None] = mapped_column(_Name, nullable=True)
     created_at: Mapped[datetime] = mapped_column(DateTime)
     payload: Mapped[str | None] = mapped_column(_LongText, nullable=True)
     data: Mapped[bytes | None] = mapped_column(_LongBlob, nullable=True)

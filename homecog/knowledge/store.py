@@ -33,9 +33,10 @@ from sqlalchemy import delete, func, insert, select, update
 from sqlalchemy.engine import Connection, Engine
 from sqlalchemy.exc import DBAPIError, OperationalError, SQLAlchemyError
 
-from homecog.errors import ConflictError, StoreError
+from homecog.errors import ConflictError, NameProblemError, StoreError
 from homecog.home.codec import Point
 from homecog.home.model import Home
+from homecog.knowledge.before import Before
 from homecog.knowledge.database import (
     db_message,
     default_url,
@@ -66,6 +67,7 @@ from homecog.knowledge.statements import (
     USER_VERSION_LOCKED,
 )
 from homecog.knowledge.store_log import StoreLog, replay
+from homecog.names import user_name_problem
 
 __all__ = ["Store", "StoreError", "default_url", "migrate", "redact"]
 SAMPLES_PER_ROW = 32768
@@ -88,12 +90,13 @@ class Store(StoreLog):
         (:func:`migrate`); it is not closed with the store. ``replace``: a home stored under the
         same name from another home file is replaced by the next build, not refused."""
         self.home = home
-        self.url = url or default_url(home)
+        self.url = url or default_url(home, create=True)
         self._own_engine = engine is None
         self.engine = make_engine(self.url) if engine is None else engine
         self._versions: dict[str, int] = {}
         self._known_users: set[str] = set()
         self._batch: Connection | None = None  # the transaction corrections share (see batch)
+        self._before: Before | None = None  # what a batch's users had before it
         self._build = 0  # the build of the tree last loaded
         try:
             if self._own_engine:
@@ -138,13 +141,12 @@ class Store(StoreLog):
             self.engine.dispose()
 
     @contextmanager
-    def batch(self) -> Iterator[None]:
-        """Corrections made inside share one transaction: all of them are stored, or none.
-
-        On an error the tree may hold corrections that were not stored: load it again.
-        """
+    def batch(self, tree: IHDRTree | None = None) -> Iterator[None]:
+        """Corrections made inside share one transaction: all of them are stored, or none; and
+        where none is, ``tree`` (the one they were made on) holds none of them either."""
         if self._batch is not None:
             raise StoreError("a batch of corrections is already open")
+        self._before = Before(tree)
         try:
             with self._tx() as conn:
                 self._batch = conn
@@ -153,8 +155,10 @@ class Store(StoreLog):
                 finally:
                     self._batch = None
         except BaseException:
-            self._versions.clear()  # what this process believes of every user may not be stored
+            self._before.restore(self._versions)
             raise
+        finally:
+            self._before = None
 
     # -- reading --------------------------------------------------------------------------------
     def has_tree(self) -> bool:
@@ -351,8 +355,13 @@ class Store(StoreLog):
     def _correct_once(
         self, tree: IHDRTree, point: Point, want: list[str], user: str, how: Kind
     ) -> tuple[list[str], list[str]]:
-        if not user or len(user) > 200:
-            raise StoreError("--user must be 1 to 200 characters")
+        problem = user_name_problem(user)  # a key of the database: every edge checked it already
+        if problem is not None:
+            raise NameProblemError(problem)
+        before = Before(tree)
+        before.keep(user, self._versions)
+        if self._before is not None:  # in a batch: as it was before the batch, if it fails
+            self._before.keep(user, self._versions)
         try:
             with self._tx() as conn:
                 if user not in self._known_users:  # a row, once: the lock the correction takes
@@ -378,8 +387,7 @@ class Store(StoreLog):
                 conn.execute(BUMP_USER, keys)
                 conn.execute(BUMP_HOME, keys)  # servers holding this home's tree see it move
         except BaseException:
-            self._versions.pop(user, None)  # the tree may hold what did not commit: reload next time
-            tree.set_user_examples(user, [])
+            before.restore(self._versions)  # the tree as it was: what is stored, and no more
             raise
         self._versions[user] = version + 1
         self._known_users.add(user)

@@ -15,6 +15,7 @@ evaluating a rule, so it takes microseconds whatever the home.
 
 from __future__ import annotations
 
+import math
 import os
 import re
 from dataclasses import dataclass
@@ -148,6 +149,23 @@ def human_bytes(n: float) -> str:
     return f"{n:.1f} PB"  # pragma: no cover
 
 
+def big_number(n: int) -> str:
+    """A count as people read it: ``663,552``, or ``1.6e+60`` past a trillion, however large
+    (a home of 10,000 devices has 2^10000 device states: no float holds that).
+
+    >>> big_number(663552), big_number(2**200), big_number(3 * 2**10000)
+    ('663,552', '1.6e+60', '6.0e+3010')
+    """
+    if n < 10**12:
+        return f"{n:,}"
+    exponent = math.log10(n)  # exact enough for any int, where float(n) overflows
+    whole = math.floor(exponent)
+    mantissa = round(10 ** (exponent - whole), 1)
+    if mantissa >= 10:
+        mantissa, whole = mantissa / 10, whole + 1
+    return f"{mantissa:.1f}e+{whole:02d}"
+
+
 def check_size(home: Home, *, joint: bool = False) -> SizeReport:
     """Refuse, with one line naming the largest group and the sizes, a home that cannot be
     learned here; otherwise the size report."""
@@ -160,7 +178,8 @@ def check_size(home: Home, *, joint: bool = False) -> SizeReport:
     what = "the joint table" if joint else f"its largest group, {g.label},"
     needs = _needs_count(home, g)
     shape = (
-        f"{report.largest_states:,} states ({report.contexts:,} contexts × 2^{len(g.devices)} device states"
+        f"{big_number(report.largest_states)} states ({big_number(report.contexts)} contexts × "
+        f"2^{len(g.devices)} device states"
         + (f" × 2^{needs} pending needs" if needs else "")
         + f") × {len(g.services)} services"
     )
@@ -184,6 +203,6 @@ def describe(report: SizeReport) -> str:
     """One line about the size, for ``home show`` and ``home check``."""
     g = report.largest
     return (
-        f"{report.groups} groups; the largest, {g.label}, has {report.largest_states:,} states × "
+        f"{report.groups} groups; the largest, {g.label}, has {big_number(report.largest_states)} states × "
         f"{len(g.services)} services; learning needs about {human_bytes(report.needed_bytes)}"
     )

@@ -24,7 +24,6 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, replace
 from typing import Any
 
-import numpy as np
 import orjson
 
 from homecog.context import ContextSource, DeviceChange, LivingSource, SettableSource
@@ -44,7 +43,7 @@ from homecog.robot.guidance import QUIET_SITUATION, Guidance
 from homecog.robot.holds import Holds, situation
 from homecog.robot.journal import Journal
 from homecog.robot.moments import Moments
-from homecog.simulation.bodies import Preview
+from homecog.robot.plans import plan_request
 
 log = logging.getLogger("homecog.robot")
 #: what the household's hands taught: switches, undos, situations lived with the devices as left
@@ -95,7 +94,6 @@ class Runtime:
         self._situation: tuple[float, dict[str, str] | None] = (0.0, None)  # since, latest context
         self._acting = threading.RLock()  # the robot acts, or an action is undone: one at a time
         self._decision: tuple[list[str], list[Any]] | None = None  # the latest announced
-        self.preview = Preview(self.home, self.robot)  # the HMI's plans, beside the acting body
         self.moments = Moments(self.home, self.source.clock, simulated=isinstance(self.source, SimulatedHome))
         self.source.listen(self._changed)
 
@@ -175,19 +173,7 @@ class Runtime:
         """The services decomposed into robot actions, in the given order, and the plan carried
         out by a robot of the runtime's body on the floor plan: its timeline, time, distance and
         trajectory (``[t, x, y]`` rows, at most 400). :class:`PlanningError` when it cannot be."""
-        from homecog.planning import plan_services
-
-        where = dict(self.space.context(self.space.point(context))) if context else None
-        result = plan_services(self.home, services, context=where)
-        sim = self.preview.run(result)
-        simulation = sim.as_dict()
-        del simulation["actions"]  # the same as the plan's
-        simulation["trajectory"] = _thin(sim.trajectory, 400)
-        return {
-            "actions": [list(a) for a in result.actions],
-            "tree": [n.as_dict() for n in result.tree],
-            "simulation": simulation,
-        }
+        return plan_request(self.home, services, context, self.robot)
 
     # -- the living home ------------------------------------------------------------------------
     def tick(self, seconds: float, *, act: bool = True, user: str | None = None) -> bool:
@@ -382,14 +368,3 @@ class Runtime:
                 log.exception("a context that does not fit the home")
                 return
         self.bus.send(kind, data)
-
-
-def _thin(trajectory: np.ndarray, most: int) -> list[list[float]]:
-    """At most ``most`` rows ``[t, x, y]`` of a trajectory, evenly spaced, first and last kept.
-
-    >>> _thin(np.array([[t, t, 0, 0] for t in range(10)], dtype=float), 4)
-    [[0.0, 0.0, 0.0], [3.0, 3.0, 0.0], [6.0, 6.0, 0.0], [9.0, 9.0, 0.0]]
-    """
-    n = len(trajectory)
-    keep = np.unique(np.linspace(0, n - 1, min(n, most)).round().astype(int)) if n else []
-    return [[round(float(t), 2), round(float(x), 3), round(float(y), 3)] for t, x, y, *_ in trajectory[keep]]

@@ -3,9 +3,12 @@ token check.
 
 With a token (always, off 127.0.0.1) every ``/api`` endpoint needs it, reads included: where the
 user is and whether they sleep is nobody else's business. It comes as
-``Authorization: Bearer <token>``; ``GET /api/events`` also takes it as the query parameter
-``access_token`` (RFC 6750 §2.3), because a browser's ``EventSource`` cannot send headers. The
-server logs no URLs, and the page opens the stream on its own origin.
+``Authorization: Bearer <token>``, or as the cookie ``homecog_token`` that ``POST /api/session``
+sets (HttpOnly, SameSite=Strict, path ``/api``): the page's way, so that no script in the page,
+its own or one smuggled in by data, can read the token. ``GET /api/events`` also takes it as the
+query parameter ``access_token`` (RFC 6750 §2.3), for clients that can send neither. The server
+logs no URLs. Every check compares bytes in constant time (:func:`authorized`); a token is
+printable ASCII (:mod:`homecog.web.settings`), the same bytes in every header.
 """
 
 from __future__ import annotations
@@ -14,7 +17,7 @@ import hmac
 from typing import Annotated
 
 from fastapi import Depends, HTTPException, Request, Security
-from fastapi.security import APIKeyQuery, HTTPAuthorizationCredentials, HTTPBearer
+from fastapi.security import APIKeyCookie, APIKeyQuery, HTTPAuthorizationCredentials, HTTPBearer
 
 from homecog.knowledge.store import Store
 from homecog.robot.runtime import Runtime
@@ -31,7 +34,45 @@ in_query = APIKeyQuery(
     scheme_name="token_in_query",
     description="The same token as a query parameter, for EventSource (GET /api/events only).",
 )
+in_cookie = APIKeyCookie(
+    name="homecog_token",
+    auto_error=False,
+    scheme_name="token_in_cookie",
+    description="The same token as an HttpOnly cookie, set by POST /api/session (the HMI's way).",
+)
+COOKIE = "homecog_token"
 MISSING = "this server needs its token: Authorization: Bearer <token>"
+
+
+def authorized(headers: list[tuple[bytes, bytes]], token: bytes | None, method: str = "GET") -> bool:
+    """Whether raw ASGI ``headers`` carry ``token``: as a bearer, or in the cookie. The cookie
+    opens a request that changes something (any method but GET and HEAD) only from the page's
+    own origin (``Origin`` is the server's), so that no other page a browser shows (another
+    site, or another server on this machine) can make the browser act with it.
+
+    >>> authorized([(b"authorization", b"Bearer s3cret-token")], b"s3cret-token")
+    True
+    >>> authorized([(b"authorization", b"Bearer s3cret-tokeN")], b"s3cret-token")
+    False
+    >>> cookie = (b"cookie", b"a=1; homecog_token=s3cret-token")
+    >>> authorized([cookie], b"s3cret-token"), authorized([cookie], b"s3cret-token", "POST")
+    (True, False)
+    >>> own = [cookie, (b"host", b"robot:8000"), (b"origin", b"http://robot:8000")]
+    >>> authorized(own, b"s3cret-token", "POST")
+    True
+    """
+    if token is None:
+        return True
+    found = dict(headers)
+    scheme, _, given = found.get(b"authorization", b"").partition(b" ")
+    if scheme.lower() == b"bearer" and hmac.compare_digest(given.strip(), token):
+        return True
+    for part in found.get(b"cookie", b"").split(b";"):
+        key, _, given = part.strip().partition(b"=")
+        if key == COOKIE.encode() and hmac.compare_digest(given, token):
+            origin, host = found.get(b"origin"), found.get(b"host", b"")
+            return method in ("GET", "HEAD") or origin in (b"http://" + host, b"https://" + host)
+    return False
 
 
 def get_runtime(request: Request) -> Runtime:
@@ -63,25 +104,30 @@ def matches(given: str | None, token: str) -> bool:
 
 
 def require_token(
-    settings: SettingsDep, credentials: Annotated[HTTPAuthorizationCredentials | None, Security(bearer)]
+    request: Request,
+    settings: SettingsDep,
+    credentials: Annotated[HTTPAuthorizationCredentials | None, Security(bearer)],
+    cookie: Annotated[str | None, Security(in_cookie)],
 ) -> None:
-    """401 unless the request carries the server's token."""
-    if settings.token is not None and not matches(credentials and credentials.credentials, settings.token):
+    """401 unless the request carries the server's token (a bearer, or the cookie:
+    :func:`authorized`)."""
+    if settings.token is not None and not authorized(
+        request.scope["headers"], settings.token.encode(), request.method
+    ):
         raise HTTPException(401, detail=MISSING, headers={"WWW-Authenticate": "Bearer"})
 
 
 def require_token_or_query(
+    request: Request,
     settings: SettingsDep,
     credentials: Annotated[HTTPAuthorizationCredentials | None, Security(bearer)],
+    cookie: Annotated[str | None, Security(in_cookie)],
     access_token: Annotated[str | None, Security(in_query)],
 ) -> None:
     """As :func:`require_token`, the token also taken from ``?access_token=``."""
-    if settings.token is None:
+    if settings.token is None or matches(access_token, settings.token):
         return
-    if not (
-        matches(credentials and credentials.credentials, settings.token)
-        or matches(access_token, settings.token)
-    ):
+    if not authorized(request.scope["headers"], settings.token.encode(), request.method):
         raise HTTPException(
             401, detail=f"{MISSING} (or ?access_token=<token>)", headers={"WWW-Authenticate": "Bearer"}
         )

@@ -16,6 +16,7 @@ import logging
 from collections.abc import Iterable, Iterator, Mapping
 from typing import Any
 
+import pydantic_core
 from fastapi import FastAPI, Request
 from fastapi.exceptions import RequestValidationError
 from fastapi.responses import JSONResponse
@@ -40,6 +41,7 @@ def responses(*codes: int, stream: bool = False) -> dict[int | str, dict[str, An
         409: "A valid request the server cannot carry out in its present state.",
         413: "A request body over the size limit (64 KiB).",
         422: "The request does not fit the contract; the message names what is wrong.",
+        429: "The planner is busy with other plans: ask again after `Retry-After` seconds.",
         503: "The knowledge database cannot be used, or the home has not reported its state yet.",
     }
     if stream:
@@ -71,8 +73,8 @@ def install(app: FastAPI, home: Home) -> None:
     @app.exception_handler(StarletteHTTPException)
     async def http_error(request: Request, exc: StarletteHTTPException) -> JSONResponse:
         headers, detail, status = dict(exc.headers or {}), str(exc.detail), exc.status_code
-        if status == 400 and detail == BODY_UNREADABLE:  # bytes that are not UTF-8: not JSON either
-            return _error(422, "body: invalid JSON: not UTF-8 text")
+        if status == 400 and detail == BODY_UNREADABLE:  # FastAPI's reader gave up: say why
+            return _error(422, f"body: invalid JSON: {unreadable(await request.body())}")
         if status == 405:
             allowed = _allowed(app, request)
             headers["Allow"] = ", ".join(allowed)
@@ -83,6 +85,25 @@ def install(app: FastAPI, home: Home) -> None:
     async def internal(request: Request, exc: Exception) -> JSONResponse:
         # Starlette logs the traceback after this answer; bad input never gets here
         return _error(500, f"internal error ({type(exc).__name__}); the server's log has the details")
+
+
+def unreadable(body: bytes) -> str:
+    """Why a body that FastAPI could not read as JSON is not JSON, in a few words.
+
+    >>> unreadable(b"\\xff"), unreadable(b"[" * 1000 + b"]" * 1000)
+    ('not UTF-8 text', 'nested deeper than 200 levels')
+    """
+    try:
+        body.decode("utf-8")
+    except UnicodeDecodeError:
+        return "not UTF-8 text"
+    try:
+        pydantic_core.from_json(body)
+    except ValueError as e:
+        if str(e).startswith("recursion limit exceeded"):
+            return "nested deeper than 200 levels"
+        return str(e)
+    return "cannot be read"
 
 
 def _error(status: int, detail: str, headers: Mapping[str, str] | None = None) -> JSONResponse:
@@ -139,6 +160,8 @@ def validation_message(errors: Any, home: Home) -> str:
         )
     if kind in CORRECTION_ERRORS:  # a correction's own rules: their message says it all
         return str(e.get("msg", "invalid correction"))
+    if kind == "user_name":
+        return f"{'.'.join(where) or 'user'}: {e.get('msg')}"
     if len(where) == 2 and where[0] == "change" and kind == "extra_forbidden":
         return f"unknown service {where[1]!r}; expected some of {', '.join(home.service_names)}"
     if len(where) == 2 and where[0] == "change" and kind == "literal_error":

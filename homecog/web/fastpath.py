@@ -11,13 +11,13 @@ and words every error. A test checks that both give the same answers and errors.
 from __future__ import annotations
 
 import asyncio
-import hmac
 from typing import Any
 
 from pydantic import BaseModel, ValidationError
 
 from homecog.errors import HomecogError
 from homecog.robot.runtime import Runtime
+from homecog.web.deps import authorized
 from homecog.web.settings import MAX_BODY
 
 __all__ = ["MAX_BODY", "BodyLimit", "CognizeFastPath"]
@@ -36,9 +36,10 @@ class CognizeFastPath:
     async def __call__(self, scope: dict[str, Any], receive: Any, send: Any) -> None:
         if scope["type"] != "http" or scope["path"] != "/api/cognize" or scope["method"] != "POST":
             return await self.app(scope, receive, send)
-        headers = dict(scope["headers"])  # a repeated header: the last one, which is not ours
-        kind = headers.get(b"content-type", b"")
-        if kind.split(b";")[0].strip().lower() != b"application/json" or not self._authorized(headers):
+        kind = dict(scope["headers"]).get(b"content-type", b"")  # repeated: the last, not ours
+        if kind.split(b";")[0].strip().lower() != b"application/json" or not authorized(
+            scope["headers"], self.token, scope["method"]
+        ):
             return await self.app(scope, receive, send)
         chunks, more = [], True
         while more:
@@ -65,12 +66,6 @@ class CognizeFastPath:
             }
         )
         await send({"type": "http.response.body", "body": answer})
-
-    def _authorized(self, headers: dict[bytes, bytes]) -> bool:
-        if self.token is None:
-            return True
-        scheme, _, given = headers.get(b"authorization", b"").partition(b" ")
-        return scheme.lower() == b"bearer" and hmac.compare_digest(given.strip(), self.token)
 
 
 def _replay(body: bytes, receive: Any) -> Any:

@@ -13,6 +13,7 @@
 ``GET /api/actions``      what the robot did lately, when and why; what the household did
 ``POST /api/actions/…``   ``/{id}/undo``: switch back what it did, learned as a rejection
 ``GET /api/events``       a live stream of server-sent events: context, correction, action
+``POST /api/session``     the token kept in an HttpOnly cookie for a browser (the page's way)
 ========================  ===================================================================
 
 The schema is made for the served home (:mod:`homecog.web.models`). With a token every
@@ -37,6 +38,7 @@ from homecog.web import errors
 from homecog.web.deps import require_token, require_token_or_query
 from homecog.web.fastpath import BodyLimit, CognizeFastPath
 from homecog.web.models import HomeModels
+from homecog.web.planner import PLANNER
 from homecog.web.routes import (
     actions,
     cognize,
@@ -47,6 +49,7 @@ from homecog.web.routes import (
     home,
     page,
     plan,
+    session,
     source,
 )
 from homecog.web.settings import Settings
@@ -75,6 +78,7 @@ def create_app(runtime: Runtime, settings: Settings | None = None, *, fleet: boo
         yield
         if task is not None:
             task.cancel()
+        PLANNER.close()
 
     app = FastAPI(
         title=f"homecog: {runtime.home.name}",
@@ -106,6 +110,7 @@ def create_app(runtime: Runtime, settings: Settings | None = None, *, fleet: boo
         )
     app.include_router(source.router, **guarded)
     app.include_router(actions.router, **guarded)
+    app.include_router(session.router, **guarded)
     if settings.token is not None:
         guarded = {
             "dependencies": [Security(require_token_or_query)],

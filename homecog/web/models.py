@@ -26,6 +26,8 @@ from pydantic_core import PydanticCustomError
 from typing_extensions import TypedDict
 
 from homecog.home.model import Feature, Home
+from homecog.names import MAX_NAME, USER_PATTERN, USER_RULE, user_name_problem
+from homecog.robot.plans import MAX_PLAN_SERVICES
 
 # Decimal hours or HH:MM[:SS] from 00:00 to 24:00, ASCII digits. Every string it matches is
 # accepted by the home's own parser (homecog.home.model.parse_clock) with the same meaning;
@@ -35,17 +37,25 @@ CLOCK_PATTERN = (
     r"^(?:(?:[01]?[0-9]|2[0-3]):[0-5][0-9](?::[0-5][0-9])?|24:00(?::00)?"
     r"|(?:[01]?[0-9]|2[0-3])(?:\.[0-9]+)?|24(?:\.0+)?)$"
 )
-USER_PATTERN = r"^[^\x00-\x1f\x7f]+$"  # a name, without control characters
 STRICT = ConfigDict(extra="forbid", regex_engine="python-re")
 
+
+def _user_name(value: str) -> str:
+    problem = user_name_problem(value)
+    if problem is not None:
+        raise PydanticCustomError("user_name", problem)
+    return value
+
+
+#: A user name (:mod:`homecog.names`): the rule checked with its own message, the schema
+#: stating it as a pattern.
 User = Annotated[
     str,
+    AfterValidator(_user_name),
     Field(
-        min_length=1,
-        max_length=200,
-        pattern=USER_PATTERN,
-        description="Whose services these are: corrections are per user.",
+        description="Whose services these are: corrections are per user. " + USER_RULE + ".",
         examples=["default"],
+        json_schema_extra={"minLength": 1, "maxLength": MAX_NAME, "pattern": USER_PATTERN},
     ),
 ]
 State = Literal["on", "off"]
@@ -236,7 +246,7 @@ class HistoryOut(BaseModel):
 
 # -- a correction: the whole set wanted, or a change of some services ---------------------------
 #: The validation errors a correction's own rules raise; their message is the whole answer.
-CORRECTION_ERRORS = ("correction_form", "correction_change_empty")
+CORRECTION_ERRORS = ("correction_form", "correction_change_empty")  # their message says it all
 WHOLE_OR_CHANGE = "want (the whole set wanted) or change (some services)"
 
 
@@ -337,7 +347,10 @@ class HomeModels:
         plan_in = create_model(
             "PlanIn",
             __config__=STRICT,
-            services=(list[service], Field(min_length=1, max_length=500, description="In this order.")),
+            services=(
+                list[service],
+                Field(min_length=1, max_length=MAX_PLAN_SERVICES, description="In this order."),
+            ),
             context=(context | None, Field(None, description="Where; the devices start as it says.")),
         )
         context_in = create_model(

@@ -10,16 +10,24 @@ of the machine could read it in the process list).
 ... except ValidationError as e:
 ...     print(e.errors()[0]["msg"])
 String should have at least 8 characters
+>>> Settings.of(token="sécret-token")
+Traceback (most recent call last):
+...
+homecog.errors.SettingsError: token (or $HOMECOG_TOKEN): printable ASCII without spaces, not 'sécret-token'
 """
 
 from __future__ import annotations
 
-from pydantic import Field, ValidationError
+import re
+
+from pydantic import Field, ValidationError, field_validator
 from pydantic_settings import BaseSettings, SettingsConfigDict
 
 from homecog.errors import SettingsError
+from homecog.names import shown
 
 MAX_BODY = 64 * 1024
+TOKEN_PATTERN = re.compile(r"[!-~]+")  # printable ASCII, no space: as a header carries it, byte for byte
 
 
 class Settings(BaseSettings):
@@ -41,9 +49,25 @@ class Settings(BaseSettings):
         "it proposes; 0: the server's clock does not move the home.",
     )
     max_body: int = Field(MAX_BODY, ge=1024, description="Request bodies over this many bytes get 413.")
+    request_timeout: float = Field(
+        5.0,
+        gt=0,
+        le=600,
+        description="Seconds a client has to send a whole request (its headers and body); a slower "
+        "or half-sent one is answered 408 and its connection closed.",
+    )
     history_limit: int = Field(
         500, ge=1, le=100_000, description="Corrections GET /api/history gives when not asked for a number."
     )
+
+    @field_validator("token")
+    @classmethod
+    def _ascii(cls, token: str | None) -> str | None:
+        """A token is compared as the bytes of a header: only printable ASCII is the same text
+        to every client, proxy and check."""
+        if token is not None and not TOKEN_PATTERN.fullmatch(token):
+            raise ValueError(f"printable ASCII without spaces, not {shown(token)}")
+        return token
 
     @classmethod
     def of(cls, **given: object) -> Settings:
@@ -54,4 +78,5 @@ class Settings(BaseSettings):
         except ValidationError as e:
             first = e.errors()[0]
             name = ".".join(str(p) for p in first["loc"])
-            raise SettingsError(f"{name} (or $HOMECOG_{name.upper()}): {first['msg'].lower()}") from None
+            msg = first["msg"].removeprefix("Value error, ")
+            raise SettingsError(f"{name} (or $HOMECOG_{name.upper()}): {msg[:1].lower()}{msg[1:]}") from None

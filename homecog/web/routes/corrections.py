@@ -45,8 +45,8 @@ class OnceNamedRoute(APIRoute):
             except TwiceNamedError as e:
                 detail = f"body: {e.args[0]!r} is given twice in one object; give each name once"
                 return Response(json.dumps({"detail": detail}), 422, media_type="application/json")
-            except ValueError:
-                pass  # not JSON (or not UTF-8): FastAPI words it
+            except (ValueError, RecursionError):
+                pass  # not JSON (or not UTF-8, or nested too deeply): FastAPI words it
             return await handle(request)
 
         return handler

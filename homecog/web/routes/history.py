@@ -10,7 +10,7 @@ from fastapi import APIRouter, Query
 from homecog.knowledge.history import agreement, correction_history
 from homecog.web.deps import SettingsDep, StoreDep
 from homecog.web.errors import responses
-from homecog.web.models import AgreementOut, HistoryCorrectionOut, HistoryOut
+from homecog.web.models import AgreementOut, HistoryCorrectionOut, HistoryOut, User
 
 router = APIRouter(tags=["cognition"])
 
@@ -19,7 +19,7 @@ router = APIRouter(tags=["cognition"])
 def history(
     store: StoreDep,
     settings: SettingsDep,
-    user: Annotated[str | None, Query(min_length=1, max_length=200, description="Only this user's.")] = None,
+    user: Annotated[User | None, Query(description="Only this user's.")] = None,
     limit: Annotated[
         int | None, Query(ge=1, le=100_000, description="At most this many (default 500).")
     ] = None,

@@ -1,8 +1,17 @@
 """``GET /``: the HMI, one page. It holds no data of the home, so it needs no token: it asks
-for the token when the API answers 401 and keeps it in the browser (``localStorage``)."""
+for the token when the API answers 401 and hands it to ``POST /api/session``, which keeps it in
+an HttpOnly cookie.
+
+The page comes with a content security policy that lets only its own script and style run
+(by their hashes) and lets it talk only to its own server: markup that data might ever smuggle
+into the page could neither run a script nor send anything elsewhere.
+"""
 
 from __future__ import annotations
 
+import base64
+import hashlib
+import re
 from pathlib import Path
 
 from fastapi import APIRouter
@@ -12,8 +21,27 @@ router = APIRouter()
 PAGE = (Path(__file__).parent.parent / "static" / "index.html").read_text(encoding="utf-8")
 
 
+def _hashes(tag: str) -> str:
+    """The CSP sources of the page's inline ``<script>`` or ``<style>`` elements, by hash."""
+    blocks = re.findall(rf"<{tag}>(.*?)</{tag}>", PAGE, flags=re.DOTALL)
+    return " ".join(
+        f"'sha256-{base64.b64encode(hashlib.sha256(b.encode()).digest()).decode()}'" for b in blocks
+    )
+
+
+POLICY = (
+    f"default-src 'none'; script-src {_hashes('script')}; style-src {_hashes('style')}; "
+    "connect-src 'self'; img-src 'self'; base-uri 'none'; form-action 'none'; frame-ancestors 'none'"
+)
+HEADERS = {
+    "Content-Security-Policy": POLICY,
+    "X-Content-Type-Options": "nosniff",
+    "Referrer-Policy": "no-referrer",
+}
+
+
 @router.get("/", response_class=HTMLResponse, include_in_schema=False)
-async def index() -> str:
+async def index() -> HTMLResponse:
     """The HMI: the home now, the robot's services and why, the user's services, the plan,
     the corrections; one page that works on a phone."""
-    return PAGE
+    return HTMLResponse(PAGE, headers=HEADERS)
