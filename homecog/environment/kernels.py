@@ -78,17 +78,26 @@ def is_prohibited(
 
 
 @_inline
+def progressed(care_c: int, want_c: int, h: int, h2: int, before: int, after: int) -> bool:
+    """Whether a step from device states ``h`` to ``h2`` is progress: the distance fell, and no
+    device that was as wanted was switched away from it (a service that sets several devices
+    may put more right than it puts wrong; that is no progress, since the plan would have to put
+    the broken device back, with a service that changes nothing where the plan starts)."""
+    return after < before and ((h ^ h2) & (h2 ^ want_c) & care_c) == 0
+
+
+@_inline
 def reward(
     w_terminal: float,
     w_progress: float,
     w_prohibited: float,
     m: float,
-    before: int,
+    progress: bool,
     after: int,
     forbidden: bool,
 ) -> float:
     """Eq. 1: w_p·(±m by progress) + w_t·(m at the optimum) − w_x·(m when prohibited)."""
-    r = w_progress * (m if after < before else -m)
+    r = w_progress * (m if progress else -m)
     if after == 0:
         r += w_terminal * m
     if forbidden:
@@ -129,7 +138,8 @@ def step(t: Tables, c: int, h: int, n: int, a: int) -> tuple[int, int, float, bo
     h2, n2 = apply(set_mask, set_val, need_pos, c, h, n, a)
     after = distance(care[c], want[c], h2, n2)
     forbidden = is_prohibited(prohibited_ctx, rule_start, rule_ctx, rule_mask, rule_val, c, h, a)
-    return h2, n2, reward(w[0], w[1], w[2], w[3], before, after, forbidden), after == 0, forbidden
+    good = progressed(care[c], want[c], h, h2, before, after)
+    return h2, n2, reward(w[0], w[1], w[2], w[3], good, after, forbidden), after == 0, forbidden
 
 
 @_jit
@@ -167,6 +177,7 @@ def step_many(
         forbidden[i] = is_prohibited(
             prohibited_ctx, rule_start, rule_ctx, rule_mask, rule_val, ci, h[i], a[i]
         )
-        rewards[i] = reward(w[0], w[1], w[2], w[3], before, after, forbidden[i])
+        good = progressed(care[ci], want[ci], h[i], h2[i], before, after)
+        rewards[i] = reward(w[0], w[1], w[2], w[3], good, after, forbidden[i])
         done[i] = after == 0
     return h2, n2, rewards, done, forbidden

@@ -31,7 +31,15 @@ import numba
 import numpy as np
 
 from homecog.environment.core import Core
-from homecog.environment.kernels import apply, argmax_row, distance, is_prohibited, popcount, reward
+from homecog.environment.kernels import (
+    apply,
+    argmax_row,
+    distance,
+    is_prohibited,
+    popcount,
+    progressed,
+    reward,
+)
 from homecog.environment.reachability import greedy_outcomes
 from homecog.environment.tables import Tables
 from homecog.home.model import Home
@@ -201,7 +209,8 @@ def run_episodes(
             h2, n2 = apply(set_mask, set_val, need_pos, c, h, n, a)
             d2 = distance(care_c, want_c, h2, n2)
             forbidden = is_prohibited(prohibited_ctx, rule_start, rule_ctx, rule_mask, rule_val, c, h, a)
-            r = reward(w_terminal, w_progress, w_prohibited, m, d, d2, forbidden)
+            good = progressed(care_c, want_c, h, h2, d, d2)
+            r = reward(w_terminal, w_progress, w_prohibited, m, good, d2, forbidden)
             tried[s, a >> 5] |= 1 << (a & 31)
             steps += 1
             if d2 == 0:
@@ -245,6 +254,19 @@ class TrainResult(RunFigures):
     q_table: QTable = field(kw_only=True)
 
 
+def leave_out_scenes(table: QTable, home: Home) -> None:
+    """Scenes are never chosen by a table (the roll-out composes them, :mod:`homecog.home.scenes`):
+    their columns are −inf and marked tried, so neither the greedy choice nor exploration takes
+    them, and Sarsa never updates them."""
+    from homecog.home.scenes import scene_services
+
+    if table.q.shape[0] == 0:
+        return
+    for a in scene_services(home):
+        table.q[:, a] = -np.inf
+        table.tried[:, a >> 5] |= 1 << (a & 31)
+
+
 def greedy_optimal_rate(core: Core, q: np.ndarray) -> float:
     """Share of start states whose greedy roll-out is optimal (exact, over all of them)."""
     return float(greedy_outcomes(core.tables, q).mean())
@@ -267,6 +289,7 @@ def train(
     core = core or Core(home)
     if q_table is None:
         q_table = QTable.empty(core, config=asdict(config))
+        leave_out_scenes(q_table, core.home)
     else:
         q_table.check_home(home)
     rng = seed_rng(config.seed) if q_table.episodes == 0 else q_table.rng.copy()
