@@ -227,9 +227,15 @@ class IHDRTree(ClusterUpdates, TreeSearch):
         """Learn a :class:`~homecog.knowledge.samples.SampleSet` at once.
 
         The same as ``learn_one`` for each sample in order, but each distinct cluster is
-        learned once with its count, which is what makes building from 663,552 samples quick.
+        learned once with its count, which is what makes building from 663,552 samples quick. A
+        group's samples over its classes of contexts are learned as boxes of the classes' values
+        (multi), or first expanded to the home's contexts (paper, whose clusters keep readings).
         """
+        if self.mode == "paper":
+            samples = samples.expand()
+        sets_of = _class_sets(samples)
         codes, readings, positions, masks = samples.codes, samples.readings, samples.positions, samples.masks
+        weight = samples.weights()  # how many of the home's start states each row stands for
         local_dims = samples.space.dims
         n_dims = len(local_dims)
         # a group's samples: their dimensions and services at their places in the whole home
@@ -242,7 +248,8 @@ class IHDRTree(ClusterUpdates, TreeSearch):
         done = positions >= 0
         for a in range(n_services):
             both = done & done[:, [a]]
-            self._precedence[where[a], list(where)] += (both & (positions > positions[:, [a]])).sum(axis=0)
+            later = both & (positions > positions[:, [a]])
+            self._precedence[where[a], list(where)] += (later * weight[:, None]).sum(axis=0)
         self._before = None
         width = len(self._space)
         for a in range(n_services + 1):
@@ -259,8 +266,9 @@ class IHDRTree(ClusterUpdates, TreeSearch):
                 row_pos = np.zeros(len(rows))
             if rows.size == 0:
                 continue
-            first, inverse, counts = distinct_rows(row_masks, codes[rows], radices)
-            pos_sums = np.bincount(inverse, weights=row_pos, minlength=len(first))
+            first, inverse, _ = distinct_rows(row_masks, codes[rows], radices)
+            counts = np.bincount(inverse, weights=weight[rows], minlength=len(first)).astype(np.int64)
+            pos_sums = np.bincount(inverse, weights=row_pos * weight[rows], minlength=len(first))
             stats = {}
             # readings matter to the paper's clusters (mean ± range); multi keeps bins only
             if self.mode == "paper" and numeric:
@@ -282,15 +290,26 @@ class IHDRTree(ClusterUpdates, TreeSearch):
                 full_codes = [0] * width
                 full_readings: list[float | None] = [None] * width
                 mask = 0
+                sets = {}
                 for j in bits(local_mask):
                     g = dims[j]
                     mask |= 1 << g
                     full_codes[g] = row_codes[i][j]
+                    if j in sets_of:
+                        sets[g] = sets_of[j][row_codes[i][j]]
+                        full_codes[g] = min(sets[g])
                     r = row_readings[i][j]
                     full_readings[g] = None if r != r else r  # NaN: not a reading
                 extra = {dims[j]: (st[0][i], st[1][i], st[2][i]) for j, st in row_stats.items()}
                 self._learn_row(
-                    target, mask, tuple(full_codes), tuple(full_readings), row_counts[i], row_sums[i], extra
+                    target,
+                    mask,
+                    tuple(full_codes),
+                    tuple(full_readings),
+                    row_counts[i],
+                    row_sums[i],
+                    extra,
+                    sets,
                 )
         self.n_experiences += len(codes)
 
@@ -400,3 +419,16 @@ class IHDRTree(ClusterUpdates, TreeSearch):
         state["_dense"] = state["_gindex"] = None  # caches, rebuilt on demand
         state["_before"] = None
         return state
+
+
+def _class_sets(samples: Any) -> dict[int, list[frozenset[int]]]:
+    """Per feature dimension of a sample set over classes that holds several values in a class,
+    the home's values of each class code."""
+    classes = getattr(samples, "classes", None)
+    if classes is None:
+        return {}
+    return {
+        j: [frozenset(m) for m in members]
+        for j, members in enumerate(classes.members)
+        if len(members) < len(classes.of[j])
+    }

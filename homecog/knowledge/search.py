@@ -19,6 +19,7 @@ import numpy as np
 from homecog.home.clock import format_clock
 from homecog.home.codec import Point
 from homecog.home.model import format_number
+from homecog.home.scenes import compose, scene_services
 from homecog.knowledge.group_index import LIMIT_BYTES as GROUP_INDEX_BYTES
 from homecog.knowledge.group_index import GroupIndex
 from homecog.knowledge.model import Cluster, Cognition, Condition, Explanation, Node, Numeric
@@ -216,12 +217,42 @@ class TreeSearch:
     def _priority(self, node: Node, cluster: Cluster) -> float:
         return cluster.priority if self.mode == "multi" and cluster.count else node.priority
 
+    def _with_scenes(
+        self, hits: list[tuple[Node, Cluster]], p: Point
+    ) -> tuple[list[tuple[Node, Cluster]], dict[int, list[str]]]:
+        """The answer with scenes in the place of the services they do the work of
+        (:func:`homecog.home.scenes.compose`), and per scene those services."""
+        if len(hits) < 2 or not scene_services(self.home):
+            return hits, {}
+        n_f = self._space.n_features
+        plan = [node.service for node, _ in hits]
+        done = compose(self.home, p.codes[:n_f], [bool(c) for c in p.codes[n_f:]], plan)
+        if len(done) == len(plan):
+            return hits, {}
+        by_service = dict(zip(plan, hits, strict=True))
+        kept = set(done)
+        replaced = {a: [] for a in done if a not in by_service}
+        for a in plan:
+            if a not in kept:
+                scene = next(x for x in replaced if self._covers(x, a))
+                replaced[scene].append(self.home.services[a].name)
+        out = [by_service.get(a) or (self._services[a], Cluster(id=-1, conditions={})) for a in done]
+        return out, replaced
+
+    def _covers(self, scene: int, a: int) -> bool:
+        return set(self.home.services[a].sets) <= set(self.home.services[scene].sets)
+
     def explain_one(self, x: Mapping[str, object] | Point, user: str | None = None) -> Cognition:
-        """Services for a context, ordered by priority, with why (Algorithm 3)."""
-        hits, idle = self._search(self.point(x), user)
+        """Services for a context, ordered by priority, with why (Algorithm 3); a scene says
+        which services it does the work of."""
+        p = self.point(x)
+        hits, idle = self._search(p, user)
+        hits, replaced = self._with_scenes(hits, p)
         explanations = []
         for node, cluster in hits:
-            if cluster.evidence is not None:
+            if node.service in replaced:
+                conditions, evidence = {"instead of": ", ".join(replaced[node.service])}, None
+            elif cluster.evidence is not None:
                 conditions, evidence = self._layers.explain(cluster.user, node.service, cluster.evidence)
             else:
                 conditions, evidence = self.describe(cluster), None
@@ -244,7 +275,8 @@ class TreeSearch:
 
     def predict_one(self, x: Mapping[str, object] | Point, user: str | None = None) -> list[str]:
         """The services the user needs in context ``x``, in priority order."""
-        return [node.name for node, _ in self._search(self.point(x), user)[0]]
+        p = self.point(x)
+        return [node.name for node, _ in self._with_scenes(self._search(p, user)[0], p)[0]]
 
     def describe(self, cluster: Cluster) -> dict[str, str]:
         """A cluster's conditions as text, per related dimension.

@@ -10,11 +10,15 @@ episodes when one is given. Groups are independent, so they are learned in paral
 (the kernels release the GIL), each from its own seed: the result does not depend on the
 number of threads.
 
+A group learns over the classes of contexts it can tell apart (:mod:`homecog.home.classes`),
+so its table does not grow with context values that none of its rules names.
+
 The greedy roll-out of the home performs, at each step, the best service over the groups not
-yet at their optimum. Since no service of a group touches another group, the home's roll-out
-from (c, h) is optimal exactly when every group's roll-out from (c, h_g) is, so the home's
-greedy-optimal rate is, exactly, the mean over contexts of the product of the groups' rates
-in that context — without enumerating the joint space.
+yet at their optimum, and composes the scenes. Since no service of a group touches another
+group, the home's roll-out from (c, h) is optimal exactly when every group's roll-out from
+(c, h_g) is, so the home's greedy-optimal rate is, exactly, the mean over contexts of the
+product of the groups' rates in that context (each read at the context's class) — without
+enumerating the joint space.
 
 >>> from homecog.home import load_home
 >>> result = train_policy(load_home("paper"), SarsaConfig(seed=0))
@@ -34,6 +38,7 @@ import numpy as np
 
 from homecog.environment.core import Core
 from homecog.environment.reachability import greedy_outcomes, optimal_start_states
+from homecog.home.classes import group_classes
 from homecog.home.groups import Group, device_groups, project
 from homecog.home.model import Home
 from homecog.learning.policy import Policy, round_q
@@ -113,11 +118,16 @@ def _learn_group(
     return _Learned(table=table, rates=ok.mean(axis=1), steps=steps)
 
 
+def _starts(home: Home, group: Group) -> int:
+    """A group's start states: its classes of contexts × 2^devices."""
+    return group_classes(home, group).count << len(group.devices)
+
+
 def _budgets(home: Home, groups: tuple[Group, ...], episodes: int | None) -> list[int | None]:
     """Episodes per group: automatic (None), or a fixed total split by start states."""
     if episodes is None:
         return [None] * len(groups)
-    weights = [home.context_count << len(g.devices) if g.services else 0 for g in groups]
+    weights = [_starts(home, g) if g.services else 0 for g in groups]
     total = sum(weights) or 1
     shares = [episodes * w // total for w in weights]
     # the rest, one each, to the groups that lost the largest fractions: exactly `episodes` in all
@@ -156,7 +166,7 @@ def train_policy(
 
     groups = device_groups(home)
     budgets = _budgets(home, groups, episodes)
-    total = sum(home.context_count << len(g.devices) for g in groups)
+    total = sum(_starts(home, g) for g in groups)
     done = 0
 
     def report(n: int) -> None:
@@ -173,8 +183,10 @@ def train_policy(
             )
         )
     rates = np.ones(home.context_count)
-    for item in learned:
-        rates *= item.rates
+    radix = [f.radix for f in home.features]
+    codes = np.stack(np.unravel_index(np.arange(home.context_count), radix), axis=1)
+    for group, item in zip(groups, learned, strict=True):
+        rates *= item.rates[group_classes(home, group).indices(codes)]
     seconds = time.perf_counter() - start
     rate = float(rates.mean())
     policy = Policy(

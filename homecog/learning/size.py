@@ -20,6 +20,7 @@ import re
 from dataclasses import dataclass
 
 from homecog.errors import HomeTooLargeError
+from homecog.home.classes import group_classes
 from homecog.home.groups import Group, device_groups, whole
 from homecog.home.model import Home
 
@@ -45,28 +46,36 @@ def _needs_count(home: Home, group: Group) -> int:
     return sum(1 for a in group.service_index if home.needs[a])
 
 
-def group_states(home: Home, group: Group) -> int:
+def contexts(home: Home, group: Group, *, joint: bool = False) -> int:
+    """The contexts a group learns over: its classes (:mod:`homecog.home.classes`), or every
+    context of the home for the joint table."""
+    return home.context_count if joint else group_classes(home, group).count
+
+
+def group_states(home: Home, group: Group, *, joint: bool = False) -> int:
     """An upper bound on a group's states: contexts × 2^devices × 2^(services that can be needed)."""
-    return home.context_count << (len(group.devices) + _needs_count(home, group))
+    return contexts(home, group, joint=joint) << (len(group.devices) + _needs_count(home, group))
 
 
-def exact_states(home: Home, group: Group) -> int:
-    """A group's states: every context × 2^devices × 2^(services that context needs)."""
+def exact_states(home: Home, group: Group, *, joint: bool = False) -> int:
+    """A group's states: every context (class) × 2^devices × 2^(services that context needs)."""
     need = [a for a in group.service_index if home.needs[a]]
-    base = home.context_count << len(group.devices)
+    base = contexts(home, group, joint=joint) << len(group.devices)
     if not need:
         return base
     import numpy as np
 
     from homecog.environment.tables import condition_contexts
 
-    radix = [f.radix for f in home.features]
-    codes = np.stack(np.unravel_index(np.arange(home.context_count), radix), axis=1)
-    count = np.zeros(home.context_count, dtype=np.int64)
+    cls = None if joint else group_classes(home, group)
+    radix = list(cls.radices) if cls is not None else [f.radix for f in home.features]
+    n = int(np.prod(radix, dtype=np.int64))
+    codes = np.stack(np.unravel_index(np.arange(n), radix), axis=1)
+    count = np.zeros(n, dtype=np.int64)
     for a in need:
-        needed = np.zeros(home.context_count, dtype=bool)
+        needed = np.zeros(n, dtype=bool)
         for cond in home.needs[a]:
-            needed |= condition_contexts(codes, cond)
+            needed |= condition_contexts(codes, cls.condition(cond) if cls is not None else cond)
         count += needed
     return int((np.int64(1) << count).sum()) << len(group.devices)
 
@@ -78,7 +87,7 @@ def sizes(home: Home) -> dict[str, object]:
     largest = max(range(len(groups)), key=lambda i: (states[i] * len(groups[i].services), -i))
     return {
         "start_states": home.context_count << len(home.devices),
-        "states": exact_states(home, whole(home)),
+        "states": exact_states(home, whole(home), joint=True),
         "groups": len(groups),
         "largest_group": groups[largest].label,
         "largest_group_states": states[largest],
@@ -87,24 +96,24 @@ def sizes(home: Home) -> dict[str, object]:
     }
 
 
-def _working_bytes(home: Home, group: Group, states: int) -> int:
+def _working_bytes(home: Home, group: Group, states: int, joint: bool) -> int:
     services = len(group.services)
     words = (services + 31) // 32
     rules = sum(len(home.prohibited[a]) for a in group.service_index)
-    tables = home.context_count * (9 * services + 40 + rules)
-    return states * (4 * services + 8 * words) + tables + (home.context_count << len(group.devices))
+    n = contexts(home, group, joint=joint)
+    return states * (4 * services + 8 * words) + n * (9 * services + 40 + rules) + (n << len(group.devices))
 
 
 def estimate(home: Home, *, joint: bool = False, workers: int | None = None) -> SizeReport:
     """What learning the home needs (see the module's docstring)."""
     groups = (whole(home),) if joint else device_groups(home)
-    sized = [(group_states(home, g), g) for g in groups]
+    sized = [(group_states(home, g, joint=joint), g) for g in groups]
     states, largest = max(sized, key=lambda x: (x[0] * max(1, len(x[1].services)), -x[1].index))
     workers = 1 if joint else max(1, min(len(groups), workers or os.cpu_count() or 1))
-    working = sorted((_working_bytes(home, g, s) for s, g in sized), reverse=True)[:workers]
+    working = sorted((_working_bytes(home, g, s, joint) for s, g in sized), reverse=True)[:workers]
     finished = sum(s * len(g.services) * (4 if joint else 2) for s, g in sized)
     return SizeReport(
-        contexts=home.context_count,
+        contexts=contexts(home, largest, joint=joint),
         largest=largest,
         largest_states=states,
         largest_entries=states * len(largest.services),
@@ -160,7 +169,9 @@ def check_size(home: Home, *, joint: bool = False) -> SizeReport:
     what = "the joint table" if joint else f"its largest group, {g.label},"
     needs = _needs_count(home, g)
     shape = (
-        f"{report.largest_states:,} states ({report.contexts:,} contexts × 2^{len(g.devices)} device states"
+        f"{report.largest_states:,} states ({report.contexts:,} "
+        + ("class of contexts" if report.contexts == 1 else "classes of contexts")
+        + f" × 2^{len(g.devices)} device states"
         + (f" × 2^{needs} pending needs" if needs else "")
         + f") × {len(g.services)} services"
     )
