@@ -239,7 +239,7 @@ def _joint_truth(home, codes, states):
             for dev, v in effect:
                 nxt[dev] = v
             st2, pend2 = (tuple(nxt), pend) if effect else (st, pend - {a})
-            broke = any(x != y and w is not None and y != w for x, y, w in zip(st, st2, wanted, strict=True))
+            broke = any(x != y and (w is None or x == w) for x, y, w in zip(st, st2, wanted, strict=True))
             if dist(st2, pend2) < d and not broke:
                 out |= {rest | {a} for rest in paths(st2, pend2)}
         return out

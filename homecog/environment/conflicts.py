@@ -21,7 +21,7 @@ import numpy as np
 
 from homecog.environment.core import Core
 from homecog.environment.reachability import optimal_start_states, solvable_start_states
-from homecog.home.classes import group_classes
+from homecog.home.classes import group_classes, home_classes, representatives
 from homecog.home.groups import Group, device_groups, project
 from homecog.home.model import Home
 
@@ -77,17 +77,17 @@ def find_conflicts(home: Home) -> ConflictReport:
             conflicts.append(GroupConflict(group, stuck, n_c << len(group.devices), example))
     total = n_c << len(home.devices)
     stuck = 0
-    if conflicts:
-        radix = [f.radix for f in home.features]
-        codes = np.stack(np.unravel_index(np.arange(n_c), radix), axis=1)
-        partial = np.zeros(n_c, dtype=bool)
+    if conflicts:  # summed over the classes of contexts no rule tells apart, each of its weight
+        every = home_classes(home)
+        codes = representatives(every)
+        partial = np.zeros(len(codes), dtype=bool)
         for classes, counts, size in per_group:
             if (counts < size).any():
                 partial |= (counts < size)[classes.indices(codes)]
-        rows = codes[partial]
+        rows, weights = codes[partial], every.weights()[partial].tolist()
         solvable = [1] * len(rows)
         for classes, counts, _ in per_group:
             for i, n in enumerate(counts[classes.indices(rows)].tolist()):
                 solvable[i] *= n
-        stuck = sum((1 << len(home.devices)) - n for n in solvable)
+        stuck = sum(w * ((1 << len(home.devices)) - n) for w, n in zip(weights, solvable, strict=True))
     return ConflictReport(stuck=stuck, start_states=total, groups=conflicts)

@@ -79,11 +79,12 @@ def is_prohibited(
 
 @_inline
 def progressed(care_c: int, want_c: int, h: int, h2: int, before: int, after: int) -> bool:
-    """Whether a step from device states ``h`` to ``h2`` is progress: the distance fell, and no
-    device that was as wanted was switched away from it (a service that sets several devices
-    may put more right than it puts wrong; that is no progress, since the plan would have to put
-    the broken device back, with a service that changes nothing where the plan starts)."""
-    return after < before and ((h ^ h2) & (h2 ^ want_c) & care_c) == 0
+    """Whether a step from device states ``h`` to ``h2`` is progress: the distance fell, and every
+    device it switched was not as wanted (and now is). A service that sets several devices may
+    put more right than it puts wrong, or switch a device nobody cares about; neither is
+    progress: the plan would have to put a broken device back, with a service that changes
+    nothing where the plan starts, and the optimum leaves a device nobody cares about as it was."""
+    return after < before and ((h ^ h2) & ~(care_c & (h ^ want_c))) == 0
 
 
 @_inline
@@ -96,9 +97,14 @@ def reward(
     after: int,
     forbidden: bool,
 ) -> float:
-    """Eq. 1: w_p·(±m by progress) + w_t·(m at the optimum) − w_x·(m when prohibited)."""
+    """Eq. 1: w_p·(±m by progress) + w_t·(m at the optimum) − w_x·(m when prohibited).
+
+    The optimum is reached by a step that is progress: one that also switches a device nobody
+    cares about (or puts one wrong) leaves the home otherwise than the optimum, which keeps
+    such a device as it was, and earns no terminal reward (with services of one device each,
+    every step that reaches distance 0 is progress: Eq. 1 unchanged)."""
     r = w_progress * (m if progress else -m)
-    if after == 0:
+    if after == 0 and progress:
         r += w_terminal * m
     if forbidden:
         r -= w_prohibited * m
@@ -113,6 +119,39 @@ def argmax_row(q: np.ndarray, s: int) -> int:
         if q[s, a] > q[s, best]:
             best = a
     return best
+
+
+@_inline
+def argmax_allowed(
+    q: np.ndarray,
+    s: int,
+    prohibited_ctx: np.ndarray,
+    rule_start: np.ndarray,
+    rule_ctx: np.ndarray,
+    rule_mask: np.ndarray,
+    rule_val: np.ndarray,
+    c: int,
+    h: int,
+) -> int:
+    """Best service in state s (context c, devices h) among those not prohibited there (the
+    first on ties): the robot never does what it must not, even where the table rates it
+    highest — Eq. 1's penalty can be outweighed by a terminal reward a prohibited service would
+    reach at once. Where every service is prohibited, the best of all."""
+    best = -1
+    for a in range(q.shape[1]):
+        if best >= 0 and q[s, a] <= q[s, best]:
+            continue
+        if not is_prohibited(prohibited_ctx, rule_start, rule_ctx, rule_mask, rule_val, c, h, a):
+            best = a
+    return argmax_row(q, s) if best < 0 else best
+
+
+@_jit
+def best_allowed(t: Tables, q: np.ndarray, c: int, h: int, n: int) -> int:
+    """:func:`argmax_allowed` in state (c, h, n) of a table over ``t`` (for callers in Python)."""
+    k = t.need_count[c]
+    s = t.offsets[c] + (h << k) + n
+    return argmax_allowed(q, s, t.prohibited_ctx, t.rule_start, t.rule_ctx, t.rule_mask, t.rule_val, c, h)
 
 
 @_jit

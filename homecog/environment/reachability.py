@@ -20,7 +20,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from homecog.environment.kernels import apply, argmax_row, distance, is_prohibited, progressed
+from homecog.environment.kernels import apply, argmax_allowed, distance, is_prohibited, progressed
 from homecog.environment.tables import Tables
 
 _jit = numba.njit(cache=True, nogil=True)
@@ -55,7 +55,8 @@ def _greedy(t: Tables, q: np.ndarray, fewest: np.ndarray) -> np.ndarray:
             ok = True
             steps = 0
             while d > 0:
-                a = argmax_row(q, offsets[c] + (h << k) + n)
+                s = offsets[c] + (h << k) + n
+                a = argmax_allowed(q, s, prohibited_ctx, rule_start, rule_ctx, rule_mask, rule_val, c, h)
                 if is_prohibited(prohibited_ctx, rule_start, rule_ctx, rule_mask, rule_val, c, h, a):
                     ok = False
                     break
@@ -73,9 +74,10 @@ def _greedy(t: Tables, q: np.ndarray, fewest: np.ndarray) -> np.ndarray:
 
 
 def greedy_outcomes(t: Tables, q: np.ndarray) -> np.ndarray:
-    """Per start state (c, h, n = needs(c)), whether the greedy roll-out is optimal: a path to
-    the optimum (see the module) in the fewest services the table can choose (a column that is
-    −inf everywhere, a scene in the joint table, is none of them). Indexed ``[c, h]``."""
+    """Per start state (c, h, n = needs(c)), whether the greedy roll-out (the best service not
+    prohibited, :func:`~homecog.environment.kernels.argmax_allowed`) is optimal: a path to the
+    optimum (see the module) in the fewest services the table can choose (a column that is −inf
+    everywhere, a scene in the joint table, is none of them). Indexed ``[c, h]``."""
     usable = ~np.isneginf(q).all(axis=0) if q.shape[0] else np.ones(q.shape[1], dtype=bool)
     several = bool((np.bitwise_count(t.set_mask[usable]) > 1).any())
     return _greedy(t, q, fewest_steps(t, usable) if several else np.zeros(0, dtype=np.int16))

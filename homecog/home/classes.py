@@ -103,7 +103,8 @@ def _conditions(home: Home, devices: Iterable[int], services: Iterable[int]) -> 
 
 def classes_of(home: Home, devices: Sequence[int], services: Sequence[int]) -> Classes:
     """The classes of the contexts for the rules of these devices and services (see the module)."""
-    key = (home.content_hash, tuple(devices), tuple(services))
+    devices, services = tuple(devices), tuple(services)
+    key = (home.content_hash, devices, services)
     if home.content_hash and key in _CACHE:
         return _CACHE[key]
     signature: list[list[list[bool]]] = [[[] for _ in f.values] for f in home.features]
@@ -123,6 +124,19 @@ def classes_of(home: Home, devices: Sequence[int], services: Sequence[int]) -> C
             _CACHE.clear()
         _CACHE[key] = found
     return found
+
+
+def home_classes(home: Home) -> Classes:
+    """The classes of contexts no rule of the home tells apart: every group's classes are unions
+    of them, so what holds per group can be summed over them instead of over every context."""
+    return classes_of(home, range(len(home.devices)), range(len(home.services)))
+
+
+def representatives(classes: Classes) -> np.ndarray:
+    """The home's codes of the first context of each class context, in class-context order."""
+    codes = np.stack(np.unravel_index(np.arange(classes.count), classes.radices), axis=1)
+    firsts = [np.array([m[0] for m in members], dtype=np.int64) for members in classes.members]
+    return np.stack([firsts[f][codes[:, f]] for f in range(len(firsts))], axis=1).reshape(-1, len(firsts))
 
 
 def group_classes(home: Home, group: object) -> Classes:

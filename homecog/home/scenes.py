@@ -159,14 +159,29 @@ class _Plan:
 def compose(home: Home, codes: Sequence[int], states: Sequence[bool], plan: Sequence[int]) -> list[int]:
     """The plan with scenes in the place of the services they do the work of (see the module),
     the scenes first."""
+    return composition(home, codes, states, plan)[0]
+
+
+def composition(
+    home: Home, codes: Sequence[int], states: Sequence[bool], plan: Sequence[int]
+) -> tuple[list[int], dict[int, tuple[int, ...]]]:
+    """:func:`compose`, and per scene taken the planned services it takes the place of."""
     scenes = scene_services(home)
     if not scenes or len(plan) < 2:
-        return list(plan)
+        return list(plan), {}
     view = _Plan(home, codes, states, plan)
     options = [o for o in (view.option(x) for x in scenes) if o is not None]
-    if not options:
-        return list(plan)
-    return _best(view, options) or list(plan)
+    chosen = _best(view, options) if options else []
+    if not chosen:
+        return list(plan), {}
+    order = view.order(chosen)
+    assert order is not None  # _best keeps only scenes that fit
+    done: set[int] = set()
+    work = {}
+    for o in sorted(chosen, key=lambda o: o.scene):
+        work[o.scene] = tuple(a for a in plan if a in o.work and a not in done)
+        done |= o.work
+    return order, work
 
 
 def _clash(a: _Option, b: _Option) -> bool:
@@ -182,7 +197,7 @@ def _cost(chosen: Sequence[_Option]) -> tuple[int, int, tuple[int, ...]]:
     )
 
 
-def _best(view: _Plan, options: list[_Option]) -> list[int] | None:
+def _best(view: _Plan, options: list[_Option]) -> list[_Option]:
     """The composed plan of the best scenes: exhaustively over the sets of options that share
     work (up to :data:`EXACT_LIMIT` options each), else one at a time by the most work saved."""
     chosen: list[_Option] = []
@@ -199,7 +214,7 @@ def _best(view: _Plan, options: list[_Option]) -> list[int] | None:
         for o in sorted(part, key=lambda o: (-len(o.work), len(o.sets), o.scene)):
             if _cost([*chosen, o]) < _cost(chosen) and _fits(view, [*chosen, o]):
                 chosen.append(o)
-    return view.order(chosen) if chosen else None
+    return chosen
 
 
 def _fits(view: _Plan, chosen: Sequence[_Option]) -> bool:

@@ -33,6 +33,7 @@ groups' sets, with scenes in the place of the services they do the work of
 from __future__ import annotations
 
 import itertools
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -89,7 +90,8 @@ def group_choices(
                 st2, pend2 = tuple(nxt), pending
             else:
                 st2, pend2 = st, pending - {a}
-            broke = any(st2[x] != st[x] and st2[x] != wanted[x] for x in mine if wanted[x] is not None)
+            # every device switched must have been wrong (see kernels.progressed)
+            broke = any(st2[x] != st[x] and (wanted[x] is None or st[x] == wanted[x]) for x in mine)
             if distance(st2, pend2) < d and not broke:
                 out |= {rest | {a} for rest in paths(st2, pend2)}
         memo[key] = out
@@ -148,10 +150,11 @@ def optimal_service_sets(
 @dataclass(frozen=True)
 class TruthChoices:
     """A context's optimal sets where more than one is optimal: per group with several, its
-    sets (the canonical first); the canonical union of every group's before scenes; and what
-    the scenes make of a union. :meth:`pick` gives the optimal set that agrees best with an
-    answer: most services in common, then fewest differences, chosen group by group (both
-    counts add up over groups), a scene of the answer counting for the services it does."""
+    sets (the canonical first); and the canonical union of every group's, before scenes.
+    :meth:`pick` gives the optimal set that agrees best with an answer — most services in
+    common, then fewest differences — over every combination of the groups' sets with the
+    scenes composed (where there are at most 256; beyond, group by group, a scene of the answer
+    counting for the services it does)."""
 
     home: Home
     codes: tuple[int, ...]
@@ -162,15 +165,36 @@ class TruthChoices:
     def pick(self, predicted: Sequence[str]) -> frozenset[str]:
         names = self.home.service_names
         said = set(predicted)
+
+        def agreement(t: frozenset[str]) -> tuple[int, int]:
+            return len(said & t), -len(t ^ said)
+
+        combos = math.prod(len(options) for options in self.groups)
+        if combos <= 256:  # every combination, scenes composed: the best exactly
+            best = max(
+                (
+                    frozenset(
+                        names[a] for a in composed(self.home, self.codes, self.states, self._union(parts))
+                    )
+                    for parts in itertools.product(*self.groups)
+                ),
+                key=agreement,
+            )
+            return best
         covered = covered_by(self.home)
         said |= {s for s in covered if covered[s] & said}
         out = set(self.base)
         for options in self.groups:
             named = [frozenset(names[a] for a in t) for t in options]
-            best = max(range(len(options)), key=lambda i: (len(said & named[i]), -len(named[i] ^ said)))
-            out = (out - options[0]) | options[best]
-        chosen = composed(self.home, self.codes, self.states, frozenset(out))
-        return frozenset(names[a] for a in chosen)
+            best_i = max(range(len(options)), key=lambda i: agreement(named[i]))
+            out = (out - options[0]) | options[best_i]
+        return frozenset(names[a] for a in composed(self.home, self.codes, self.states, frozenset(out)))
+
+    def _union(self, parts: Sequence[frozenset[int]]) -> frozenset[int]:
+        out = set(self.base)
+        for options, part in zip(self.groups, parts, strict=True):
+            out = (out - options[0]) | part
+        return frozenset(out)
 
 
 def truth_with_choices(

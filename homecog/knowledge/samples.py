@@ -51,7 +51,7 @@ import numba
 import numpy as np
 
 from homecog.environment.core import Core
-from homecog.environment.kernels import apply, argmax_row, distance
+from homecog.environment.kernels import apply, argmax_allowed, distance
 from homecog.environment.tables import Tables
 from homecog.home.classes import Classes, group_classes
 from homecog.home.codec import Point, Space, finite_span
@@ -179,7 +179,22 @@ class SampleSet:
 @_jit
 def greedy_positions(t: Tables, q: np.ndarray, limit: int) -> np.ndarray:
     """For every start state, the step at which the greedy roll-out performs each service."""
-    (n_devices, need_count, offsets, care, want, need_pos, set_mask, set_val, _, _, _, _, _, _) = t
+    (
+        n_devices,
+        need_count,
+        offsets,
+        care,
+        want,
+        need_pos,
+        set_mask,
+        set_val,
+        p_ctx,
+        r_start,
+        r_ctx,
+        r_mask,
+        r_val,
+        _,
+    ) = t
     n_contexts = len(need_count)
     n_h = 1 << n_devices
     out = np.full((n_contexts, n_h, q.shape[1]), -1, dtype=np.int8)
@@ -189,7 +204,7 @@ def greedy_positions(t: Tables, q: np.ndarray, limit: int) -> np.ndarray:
             h, n = h0, (1 << k) - 1
             step = 0
             while distance(care[c], want[c], h, n) > 0 and step < limit:
-                a = argmax_row(q, offsets[c] + (h << k) + n)
+                a = argmax_allowed(q, offsets[c] + (h << k) + n, p_ctx, r_start, r_ctx, r_mask, r_val, c, h)
                 if out[c, h0, a] < 0:
                     out[c, h0, a] = step
                 h, n = apply(set_mask, set_val, need_pos, c, h, n, a)

@@ -19,7 +19,7 @@ import numpy as np
 from homecog.home.clock import format_clock
 from homecog.home.codec import Point
 from homecog.home.model import format_number
-from homecog.home.scenes import compose, scene_services
+from homecog.home.scenes import composition, scene_services
 from homecog.knowledge.group_index import LIMIT_BYTES as GROUP_INDEX_BYTES
 from homecog.knowledge.group_index import GroupIndex
 from homecog.knowledge.model import Cluster, Cognition, Condition, Explanation, Node, Numeric
@@ -221,26 +221,18 @@ class TreeSearch:
         self, hits: list[tuple[Node, Cluster]], p: Point
     ) -> tuple[list[tuple[Node, Cluster]], dict[int, list[str]]]:
         """The answer with scenes in the place of the services they do the work of
-        (:func:`homecog.home.scenes.compose`), and per scene those services."""
+        (:func:`homecog.home.scenes.composition`), and per scene those services."""
         if len(hits) < 2 or not scene_services(self.home):
             return hits, {}
         n_f = self._space.n_features
         plan = [node.service for node, _ in hits]
-        done = compose(self.home, p.codes[:n_f], [bool(c) for c in p.codes[n_f:]], plan)
-        if len(done) == len(plan):
+        done, work = composition(self.home, p.codes[:n_f], [bool(c) for c in p.codes[n_f:]], plan)
+        if not work:
             return hits, {}
         by_service = dict(zip(plan, hits, strict=True))
-        kept = set(done)
-        replaced = {a: [] for a in done if a not in by_service}
-        for a in plan:
-            if a not in kept:
-                scene = next(x for x in replaced if self._covers(x, a))
-                replaced[scene].append(self.home.services[a].name)
         out = [by_service.get(a) or (self._services[a], Cluster(id=-1, conditions={})) for a in done]
-        return out, replaced
-
-    def _covers(self, scene: int, a: int) -> bool:
-        return set(self.home.services[a].sets) <= set(self.home.services[scene].sets)
+        names = self.home.service_names
+        return out, {x: [names[a] for a in replaced] for x, replaced in work.items()}
 
     def explain_one(self, x: Mapping[str, object] | Point, user: str | None = None) -> Cognition:
         """Services for a context, ordered by priority, with why (Algorithm 3); a scene says

@@ -2,7 +2,8 @@
 
 The roll-out of one table follows its best service until the optimum. The roll-out of a
 home learned group by group performs, at each step, the best service over all groups not yet
-at their optimum — the greatest Q value of each group's best service, the first group on ties —
+at their optimum — the greatest Q value of each group's best service not prohibited there, the
+first group on ties —
 and a scene takes the place of the services it does the work of
 (:func:`homecog.home.scenes.compose`).
 
@@ -26,7 +27,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from homecog.environment.core import Core
-from homecog.environment.kernels import argmax_row
+from homecog.environment.kernels import best_allowed
 from homecog.home.classes import group_classes
 from homecog.home.encoding import context_index
 from homecog.home.groups import project
@@ -42,7 +43,7 @@ def greedy_services(
     n = core.full_needs(c) if n is None else n
     out: list[int] = []
     while core.distance(c, h, n) > 0 and len(out) < limit:
-        a = int(argmax_row(q, core.index(c, h, n)))
+        a = int(best_allowed(core.tables, q, c, h, n))
         out.append(a)
         h, n, *_ = core.step(c, h, n, a)
     return out
@@ -79,7 +80,7 @@ class Rollout:
                 if not groups[i].services or core.distance(ctx[i], h[i], n[i]) == 0:
                     continue
                 s = core.index(ctx[i], h[i], n[i])
-                a = int(argmax_row(self.q[i], s))
+                a = int(best_allowed(core.tables, self.q[i], ctx[i], h[i], n[i]))
                 if best < 0 or self.q[i][s, a] > value:
                     best, value, local = i, float(self.q[i][s, a]), a
             if best < 0:

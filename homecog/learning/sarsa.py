@@ -33,7 +33,7 @@ import numpy as np
 from homecog.environment.core import Core
 from homecog.environment.kernels import (
     apply,
-    argmax_row,
+    argmax_allowed,
     distance,
     is_prohibited,
     popcount,
@@ -107,8 +107,9 @@ def _lowest_bit(x: int) -> int:
 
 
 @_inline
-def choose(q: np.ndarray, tried: np.ndarray, s: int, eps: float, rng: np.ndarray) -> int:
-    """The paper's policy: best when all are tried; else best w.p. ε, a random untried one.
+def choose(q: np.ndarray, tried: np.ndarray, s: int, eps: float, rng: np.ndarray, best: int) -> int:
+    """The paper's policy: the best (``best``, the caller's greedy choice) when all are tried;
+    else the best w.p. ε, a random untried one.
 
     ``tried[s, w]`` holds the tried marks of services ``32w .. 32w+31`` as bits.
     """
@@ -117,7 +118,7 @@ def choose(q: np.ndarray, tried: np.ndarray, s: int, eps: float, rng: np.ndarray
     for w in range(tried.shape[1]):
         untried += popcount(~tried[s, w] & word_mask(n_services, w))
     if untried == 0 or _uniform(rng) < eps:
-        return argmax_row(q, s)
+        return best
     pick = _next(rng) % untried
     for w in range(tried.shape[1]):
         bits = ~tried[s, w] & word_mask(n_services, w)
@@ -163,11 +164,14 @@ def run_episodes(
     max_steps: int,
     rng: np.ndarray,
     starts: np.ndarray,
+    firsts: np.ndarray,
 ) -> int:
     """Algorithm 1 for ``episodes`` episodes numbered from ``t0 + 1``; returns the steps taken.
 
     Episodes start in a uniformly random context and device state, or, when ``starts`` is not
-    empty, in ``starts[e]`` (``c · 2^devices + h``): a sweep over every start state.
+    empty, in ``starts[e]`` (``c · 2^devices + h``): a sweep over every start state; where
+    ``firsts`` is not empty, episode ``e`` begins with service ``firsts[e]``, the policy choosing
+    from the second step on (exploring starts over states and services).
     """
     (
         n_devices,
@@ -204,7 +208,11 @@ def run_episodes(
         if d == 0:
             continue
         s = offsets[c] + (h << k) + n
-        a = choose(q, tried, s, eps, rng)
+        if firsts.size:
+            a = firsts[e]
+        else:
+            best = argmax_allowed(q, s, prohibited_ctx, rule_start, rule_ctx, rule_mask, rule_val, c, h)
+            a = choose(q, tried, s, eps, rng, best)
         for _ in range(max_steps):
             h2, n2 = apply(set_mask, set_val, need_pos, c, h, n, a)
             d2 = distance(care_c, want_c, h2, n2)
@@ -217,7 +225,8 @@ def run_episodes(
                 sarsa_update(q, s, a, r, 0.0, alpha)
                 break
             s2 = offsets[c] + (h2 << k) + n2
-            a2 = choose(q, tried, s2, eps, rng)
+            best = argmax_allowed(q, s2, prohibited_ctx, rule_start, rule_ctx, rule_mask, rule_val, c, h2)
+            a2 = choose(q, tried, s2, eps, rng, best)
             sarsa_update(q, s, a, r, gamma * q[s2, a2], alpha)
             s, h, n, a, d = s2, h2, n2, a2, d2
     return steps
@@ -310,6 +319,7 @@ def train(
                 config.epsilon_min,
                 config.max_steps,
                 rng,
+                NO_STARTS,
                 NO_STARTS,
             )
         )

@@ -3,14 +3,15 @@ refused at once, with one line naming its largest group and the sizes, instead o
 minutes and then failing.
 
 The estimate counts what learning a group holds at once — its Q values (float32), tried
-marks, rule tables over every context — for as many groups as are learned in parallel, plus
-every group's finished table (float16). It is computed from the home's sizes alone, without
-evaluating a rule, so it takes microseconds whatever the home.
+marks, rule tables over its classes of contexts (:mod:`homecog.home.classes`) — for as many
+groups as are learned in parallel, plus every group's finished table (float16). It is computed
+from the home's sizes and the values its rules name, without evaluating a rule over any
+context, so it takes milliseconds whatever the home.
 
 >>> from homecog.home import load_home
 >>> report = estimate(load_home("paper"))
->>> report.largest.devices, report.largest_states
-(('window', 'ac_living', 'ac_bedroom'), 20736)
+>>> report.largest.devices, report.largest_states, report.contexts    # 24 of 2,592 contexts
+(('window', 'ac_living', 'ac_bedroom'), 192, 24)
 """
 
 from __future__ import annotations
@@ -20,7 +21,7 @@ import re
 from dataclasses import dataclass
 
 from homecog.errors import HomeTooLargeError
-from homecog.home.classes import group_classes
+from homecog.home.classes import group_classes, home_classes
 from homecog.home.groups import Group, device_groups, whole
 from homecog.home.model import Home
 
@@ -67,17 +68,17 @@ def exact_states(home: Home, group: Group, *, joint: bool = False) -> int:
 
     from homecog.environment.tables import condition_contexts
 
-    cls = None if joint else group_classes(home, group)
-    radix = list(cls.radices) if cls is not None else [f.radix for f in home.features]
-    n = int(np.prod(radix, dtype=np.int64))
-    codes = np.stack(np.unravel_index(np.arange(n), radix), axis=1)
-    count = np.zeros(n, dtype=np.int64)
+    # the joint table has a row per context: summed over the classes no rule tells apart
+    cls = home_classes(home) if joint else group_classes(home, group)
+    codes = np.stack(np.unravel_index(np.arange(cls.count), cls.radices), axis=1)
+    count = np.zeros(cls.count, dtype=np.int64)
     for a in need:
-        needed = np.zeros(n, dtype=bool)
+        needed = np.zeros(cls.count, dtype=bool)
         for cond in home.needs[a]:
-            needed |= condition_contexts(codes, cls.condition(cond) if cls is not None else cond)
+            needed |= condition_contexts(codes, cls.condition(cond))
         count += needed
-    return int((np.int64(1) << count).sum()) << len(group.devices)
+    weights = cls.weights() if joint else 1
+    return int(((np.int64(1) << count) * weights).sum()) << len(group.devices)
 
 
 def sizes(home: Home) -> dict[str, object]:
