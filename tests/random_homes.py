@@ -9,6 +9,7 @@ context and over device states. Homes stay small (a few hundred contexts) so tha
 built and judged in well under a second.
 
 >>> from hypothesis import given, settings
+>>> from homecog.home import load_home_text
 >>> @settings(max_examples=3, deadline=None, derandomize=True)
 ... @given(homes())
 ... def loads(text):

@@ -94,17 +94,18 @@ def reward(
     w_prohibited: float,
     m: float,
     progress: bool,
+    before: int,
     after: int,
     forbidden: bool,
 ) -> float:
     """Eq. 1: w_p·(±m by progress) + w_t·(m at the optimum) − w_x·(m when prohibited).
 
-    The optimum is reached by a step that is progress: one that also switches a device nobody
-    cares about (or puts one wrong) leaves the home otherwise than the optimum, which keeps
-    such a device as it was, and earns no terminal reward (with services of one device each,
-    every step that reaches distance 0 is progress: Eq. 1 unchanged)."""
+    A step that brings the distance to 0 without being progress — it also switched a device
+    nobody cares about, or put one wrong — earns no terminal reward: the optimum keeps such a
+    device as it was. (With services of one device each every such step is progress, and a
+    useless service at the optimum still earns −2 + 5 = +3: Eq. 1 as before.)"""
     r = w_progress * (m if progress else -m)
-    if after == 0 and progress:
+    if after == 0 and (progress or before == 0):
         r += w_terminal * m
     if forbidden:
         r -= w_prohibited * m
@@ -178,7 +179,7 @@ def step(t: Tables, c: int, h: int, n: int, a: int) -> tuple[int, int, float, bo
     after = distance(care[c], want[c], h2, n2)
     forbidden = is_prohibited(prohibited_ctx, rule_start, rule_ctx, rule_mask, rule_val, c, h, a)
     good = progressed(care[c], want[c], h, h2, before, after)
-    return h2, n2, reward(w[0], w[1], w[2], w[3], good, after, forbidden), after == 0, forbidden
+    return h2, n2, reward(w[0], w[1], w[2], w[3], good, before, after, forbidden), after == 0, forbidden
 
 
 @_jit
@@ -217,6 +218,6 @@ def step_many(
             prohibited_ctx, rule_start, rule_ctx, rule_mask, rule_val, ci, h[i], a[i]
         )
         good = progressed(care[ci], want[ci], h[i], h2[i], before, after)
-        rewards[i] = reward(w[0], w[1], w[2], w[3], good, after, forbidden[i])
+        rewards[i] = reward(w[0], w[1], w[2], w[3], good, before, after, forbidden[i])
         done[i] = after == 0
     return h2, n2, rewards, done, forbidden

@@ -218,7 +218,7 @@ def run_episodes(
             d2 = distance(care_c, want_c, h2, n2)
             forbidden = is_prohibited(prohibited_ctx, rule_start, rule_ctx, rule_mask, rule_val, c, h, a)
             good = progressed(care_c, want_c, h, h2, d, d2)
-            r = reward(w_terminal, w_progress, w_prohibited, m, good, d2, forbidden)
+            r = reward(w_terminal, w_progress, w_prohibited, m, good, d, d2, forbidden)
             tried[s, a >> 5] |= 1 << (a & 31)
             steps += 1
             if d2 == 0:
