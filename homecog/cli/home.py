@@ -51,6 +51,11 @@ def home_show(home: HomeOption = "paper", json: JsonOption = False) -> None:
     stdout.print(
         f"learned in {s['groups']} independent groups, {s['group_states']:,} states in all; the largest, "
         f"{s['largest_group']}, has {s['largest_group_states']:,}"
+        + (
+            f"; {s['scenes']} scenes, each taken where it does the work of several services"
+            if s["scenes"]
+            else ""
+        )
     )
 
     for table in home_tables(h):
@@ -69,17 +74,8 @@ def home_check(
     from homecog.environment.conflicts import find_conflicts
     from homecog.learning.size import check_size, describe
 
-    h = load_home(file)
+    h = load_home(file)  # a floor plan the robot cannot live in is refused here (homecog.home.floor)
     size = check_size(h)
-    if h.layout is not None:  # every place the robot may be sent to must be reachable
-        from homecog.simulation import plan_path
-
-        targets = dict.fromkeys(h.layout.places)
-        for d in h.devices:
-            if not d.iot:
-                targets[h.layout.device_place(d.name)] = None
-        for target in targets:
-            plan_path(h.layout, h.layout.robot, target)
     summary = home_summary(h)
     report = find_conflicts(h)
     summary["unsolvable_start_states"] = report.stuck
@@ -93,7 +89,9 @@ def home_check(
     stdout.print(
         f"ok: {h.source}: home '{h.name}': {summary['features']} features, "
         f"{summary['contexts']:,} contexts, {summary['devices']} devices, "
-        f"{summary['services']} services; {describe(size)}"
+        f"{summary['services']} services"
+        + (f" ({summary['scenes']} of them scenes)" if summary["scenes"] else "")
+        + f"; {describe(size)}"
     )
     if report.stuck:
         stdout.print(

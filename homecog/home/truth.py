@@ -48,6 +48,19 @@ def _key(home: Home, chosen: frozenset[int]) -> tuple[int, int, tuple[int, ...]]
     return (len(chosen), sum(len(home.services[a].sets) for a in chosen), tuple(sorted(chosen)))
 
 
+_INDEX: dict[str, dict[str, int]] = {}
+
+
+def _device_index(home: Home) -> dict[str, int]:
+    """Device name -> position, made once per home (the search asks it for every service)."""
+    key = home.content_hash or str(id(home))
+    if key not in _INDEX:
+        if len(_INDEX) >= 64:
+            _INDEX.clear()
+        _INDEX[key] = {d.name: i for i, d in enumerate(home.devices)}
+    return _INDEX[key]
+
+
 def group_choices(
     home: Home,
     group: Group,
@@ -64,13 +77,26 @@ def group_choices(
     wanted = home.wanted(codes) if wanted is None else wanted
     needed = home.needs_of(codes) if needed is None else needed
     needs = frozenset(a for a in needed if a in group.service_index)
-    mine = group.device_index
-    effects = {
-        a: tuple((home.device_index(d), v) for d, v in home.services[a].sets) for a in group.service_index
+    mine = group.device_index  # the search runs over the group's devices only
+    local = {d: k for k, d in enumerate(mine)}
+    want = [wanted[d] for d in mine]
+    index = _device_index(home)
+    effects = {a: tuple((local[index[d]], v) for d, v in home.services[a].sets) for a in group.service_index}
+    # each service's prohibited rules: those whose context part matches, as (device, allowed) pairs
+    rules = {
+        a: [
+            tuple((local[d], allowed) for d, allowed in cond.devices)
+            for cond in home.prohibited[a]
+            if all(codes[f] in allowed for f, allowed in cond.features)
+        ]
+        for a in group.service_index
     }
 
+    def forbidden(a: int, st: tuple[bool, ...]) -> bool:
+        return any(all(st[k] in allowed for k, allowed in rule) for rule in rules[a])
+
     def distance(st: tuple[bool, ...], pending: frozenset[int]) -> int:
-        return sum(1 for d in mine if wanted[d] is not None and st[d] != wanted[d]) + len(pending)
+        return sum(1 for k, w in enumerate(want) if w is not None and st[k] != w) + len(pending)
 
     memo: dict[tuple[tuple[bool, ...], frozenset[int]], set[frozenset[int]]] = {}
 
@@ -81,30 +107,29 @@ def group_choices(
         d = distance(st, pending)
         out: set[frozenset[int]] = {frozenset()} if d == 0 else set()
         for a, effect in effects.items():
-            if d == 0 or len(out) >= limit or home.is_prohibited(a, codes, st):
+            if d == 0 or len(out) >= limit or forbidden(a, st):
                 continue
             if effect:
                 nxt = list(st)
-                for dev, value in effect:
-                    nxt[dev] = value
+                for k, value in effect:
+                    nxt[k] = value
                 st2, pend2 = tuple(nxt), pending
             else:
                 st2, pend2 = st, pending - {a}
             # every device switched must have been wrong (see kernels.progressed)
-            broke = any(st2[x] != st[x] and (wanted[x] is None or st[x] == wanted[x]) for x in mine)
+            broke = any(y != x and (w is None or x == w) for x, y, w in zip(st, st2, want, strict=True))
             if distance(st2, pend2) < d and not broke:
                 out |= {rest | {a} for rest in paths(st2, pend2)}
         memo[key] = out
         return out
 
-    start = tuple(bool(x) for x in states)
+    start = tuple(bool(states[d]) for d in mine)
     found = paths(start, needs)
     if not found:  # conflicting rules: fall back to one setter per wrong device, no order
         chosen = set(needs)
-        for d in mine:
-            w = wanted[d]
-            if w is not None and start[d] != w:
-                setter = next((a for a, e in effects.items() if (d, w) in e), None)
+        for k, w in enumerate(want):
+            if w is not None and start[k] != w:
+                setter = next((a for a, e in effects.items() if (k, w) in e), None)
                 if setter is not None:
                     chosen.add(setter)
         found = {frozenset(chosen)}

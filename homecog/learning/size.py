@@ -24,6 +24,7 @@ from homecog.errors import HomeTooLargeError
 from homecog.home.classes import group_classes, home_classes
 from homecog.home.groups import Group, device_groups, whole
 from homecog.home.model import Home
+from homecog.home.scenes import scene_services
 
 #: Largest Q table (states × services) one group may have: as the joint table's limit.
 MAX_GROUP_ENTRIES = 2**31
@@ -90,6 +91,7 @@ def sizes(home: Home) -> dict[str, object]:
         "start_states": home.context_count << len(home.devices),
         "states": exact_states(home, whole(home), joint=True),
         "groups": len(groups),
+        "scenes": len(scene_services(home)),
         "largest_group": groups[largest].label,
         "largest_group_states": states[largest],
         "group_states": sum(states),
