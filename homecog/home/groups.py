@@ -133,12 +133,22 @@ def _find_groups(home: Home) -> tuple[Group, ...]:
     return tuple(groups)
 
 
+_OWNERS: dict[str, tuple[int, ...]] = {}
+
+
 def group_of_service(home: Home) -> tuple[int, ...]:
     """Per service (in home order), the index of its group (−1: a scene across groups)."""
+    key = home.content_hash
+    if key and key in _OWNERS:
+        return _OWNERS[key]
     out = [-1] * len(home.services)
     for g in device_groups(home):
         for a in g.service_index:
             out[a] = g.index
+    if key:
+        if len(_OWNERS) >= 64:
+            _OWNERS.clear()
+        _OWNERS[key] = tuple(out)
     return tuple(out)
 
 

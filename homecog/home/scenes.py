@@ -66,6 +66,17 @@ EXACT_LIMIT = 12
 ORDER_LIMIT = 16
 
 _CACHE: dict[str, tuple[int, ...]] = {}
+_POSITIONS: dict[str, dict[str, int]] = {}
+
+
+def device_positions(home: Home) -> dict[str, int]:
+    """Device name -> position in the home, made once per home."""
+    key = home.content_hash or str(id(home))
+    if key not in _POSITIONS:
+        if len(_POSITIONS) >= 64:
+            _POSITIONS.clear()
+        _POSITIONS[key] = {d.name: i for i, d in enumerate(home.devices)}
+    return _POSITIONS[key]
 
 
 def scene_candidates(home: Home) -> tuple[int, ...]:
@@ -101,6 +112,8 @@ class _Option:
     switches: dict[int, bool]  # devices it switches, to what
     sets: dict[int, bool]  # every device it sets
     work: frozenset[int]  # planned services it takes the place of
+    on: int  # the devices it sets on, as bits
+    off: int  # the devices it sets off, as bits
 
 
 class _Plan:
@@ -108,7 +121,7 @@ class _Plan:
 
     def __init__(self, home: Home, codes: Sequence[int], states: Sequence[bool], plan: Sequence[int]) -> None:
         self.home, self.codes, self.states, self.plan = home, codes, states, list(plan)
-        index = {d.name: i for i, d in enumerate(home.devices)}
+        index = device_positions(home)
         self.index = index
         self.effects = {a: [(index[d], v) for d, v in home.services[a].sets] for a in self.plan}
         self.final: dict[int, bool | None] = {}
@@ -118,6 +131,10 @@ class _Plan:
                     self.final[d] = v if self.final.get(d, v) == v else None  # both ways: unknown
         self.changes = {a: frozenset(d for d, v in self.effects[a] if states[d] != v) for a in self.plan}
         self.reads = {a: frozenset(d for c in home.prohibited[a] for d, _ in c.devices) for a in self.plan}
+        self.changer: dict[int, list[int]] = {}  # device -> the planned services that switch it
+        for a in self.plan:
+            for d in self.changes[a]:
+                self.changer.setdefault(d, []).append(a)
 
     def option(self, x: int) -> _Option | None:
         home = self.home
@@ -127,10 +144,13 @@ class _Plan:
         switches = {d: v for d, v in sets.items() if self.states[d] != v}
         if any(self.final.get(d, self.states[d]) != v for d, v in switches.items()):
             return None  # rule 2
-        work = frozenset(a for a in self.plan if self.changes[a] and self.changes[a] <= switches.keys())
-        if len(work) < 2 or any(self.changes[a] & switches.keys() for a in self.plan if a not in work):
-            return None  # rules 4 and 3
-        return _Option(scene=x, switches=switches, sets=sets, work=work)
+        touching = {a for d in switches for a in self.changer.get(d, ())}
+        work = frozenset(a for a in touching if self.changes[a] <= switches.keys())
+        if len(work) < 2 or len(work) < len(touching):
+            return None  # rules 4 and 3: two services' work or more, and no other switching its devices
+        on = sum(1 << d for d, v in sets.items() if v)
+        off = sum(1 << d for d, v in sets.items() if not v)
+        return _Option(scene=x, switches=switches, sets=sets, work=work, on=on, off=off)
 
     def order(self, chosen: Sequence[_Option]) -> list[int] | None:
         """The plan with ``chosen`` first, then the rest in the plan's order, except in the groups
@@ -185,7 +205,7 @@ def composition(
 
 
 def _clash(a: _Option, b: _Option) -> bool:
-    return any(b.sets.get(d, v) != v for d, v in a.sets.items())
+    return bool((a.on & b.off) | (a.off & b.on))
 
 
 def _cost(chosen: Sequence[_Option]) -> tuple[int, int, tuple[int, ...]]:

@@ -39,26 +39,13 @@ from dataclasses import dataclass
 
 from homecog.home.groups import Group, device_groups
 from homecog.home.model import Home
-from homecog.home.scenes import compose, covered_by
+from homecog.home.scenes import compose, covered_by, device_positions
 
 Choice = tuple[frozenset[int], ...]  # a group's optimal sets of service positions, best first
 
 
 def _key(home: Home, chosen: frozenset[int]) -> tuple[int, int, tuple[int, ...]]:
     return (len(chosen), sum(len(home.services[a].sets) for a in chosen), tuple(sorted(chosen)))
-
-
-_INDEX: dict[str, dict[str, int]] = {}
-
-
-def _device_index(home: Home) -> dict[str, int]:
-    """Device name -> position, made once per home (the search asks it for every service)."""
-    key = home.content_hash or str(id(home))
-    if key not in _INDEX:
-        if len(_INDEX) >= 64:
-            _INDEX.clear()
-        _INDEX[key] = {d.name: i for i, d in enumerate(home.devices)}
-    return _INDEX[key]
 
 
 def group_choices(
@@ -80,7 +67,7 @@ def group_choices(
     mine = group.device_index  # the search runs over the group's devices only
     local = {d: k for k, d in enumerate(mine)}
     want = [wanted[d] for d in mine]
-    index = _device_index(home)
+    index = device_positions(home)
     effects = {a: tuple((local[index[d]], v) for d, v in home.services[a].sets) for a in group.service_index}
     # each service's prohibited rules: those whose context part matches, as (device, allowed) pairs
     rules = {
