@@ -13,8 +13,8 @@ change, when
 
 Where the robot's centre may be is the floor less a band of that clearance along every wall
 piece (the doors cut out); what it can reach from its start is that free floor's connected
-part, on a grid of :data:`RESOLUTION`, 4-connected as the planner's 8-connected moves that
-never cut a corner are. The simulator plans its paths on the same free floor
+part (:func:`connected_parts`), on a grid of :data:`RESOLUTION`, 4-connected as the planner's
+8-connected moves that never cut a corner are. The simulator plans its paths on the same free floor
 (:func:`free_floor`).
 
 >>> from homecog.home import load_home
@@ -30,7 +30,6 @@ import math
 from collections.abc import Callable, Mapping, Sequence
 
 import numpy as np
-from scipy import ndimage
 
 from homecog.errors import HomeFileError
 from homecog.home.layout import WALL_THICKNESS, Layout, Point2, point_segment_distance
@@ -63,6 +62,38 @@ def free_floor(layout: Layout, *, resolution: float = RESOLUTION, radius: float 
         t = np.clip(((px - x0) * dx + (py - y0) * dy) / (dx * dx + dy * dy), 0.0, 1.0)
         free[r0:r1, c0:c1] &= np.hypot(px - (x0 + t * dx), py - (y0 + t * dy)) >= reach
     return free
+
+
+def connected_parts(free: np.ndarray) -> np.ndarray:
+    """A label per free cell, the same for cells joined by a 4-connected way (0: not free).
+
+    Runs of free cells along each row are joined where they touch a run of the next row, by
+    union-find over the runs (a floor has a few per row), so it costs a pass over the cells.
+
+    >>> connected_parts(np.array([[1, 0, 1], [1, 0, 1], [1, 1, 0]], dtype=bool)).tolist()
+    [[1, 0, 2], [1, 0, 2], [1, 1, 0]]
+    """
+    rows, cols = free.shape
+    padded = np.zeros((rows, cols + 1), dtype=bool)
+    padded[:, 1:] = free
+    starts = free & ~padded[:, :-1]  # a run begins where a free cell follows a wall or the edge
+    run = np.cumsum(starts.reshape(-1)).reshape(rows, cols) * free
+    parent = list(range(int(run.max()) + 1))
+
+    def find(x: int) -> int:
+        while parent[x] != x:
+            parent[x] = parent[parent[x]]
+            x = parent[x]
+        return x
+
+    both = free[:-1] & free[1:]
+    for a, b in set(zip(run[:-1][both].tolist(), run[1:][both].tolist(), strict=True)):
+        ra, rb = find(a), find(b)
+        if ra != rb:
+            parent[max(ra, rb)] = min(ra, rb)
+    roots = np.array([find(x) for x in range(len(parent))], dtype=np.int64)
+    _, dense = np.unique(roots, return_inverse=True)  # 0 stays 0: the root of "no run" is itself
+    return dense.reshape(-1)[run]
 
 
 def _cell(p: Point2, shape: tuple[int, int], resolution: float = RESOLUTION) -> tuple[int, int]:
@@ -140,7 +171,7 @@ def check_floor(
                 f"({p[0]:g}, {p[1]:g}) is {near:.2f} m from a wall; the robot (radius {ROBOT_RADIUS:g} m) "
                 f"needs {reach:.2f} m: move the place away from the wall",
             )
-    labels, _ = ndimage.label(free_floor(layout))
+    labels = connected_parts(free_floor(layout))
     start = _labels_near(labels, layout.places[layout.robot])
     for name, path, why in _targets(layout, locations, devices):
         if _labels_near(labels, layout.place(name)) & start:
