@@ -1,15 +1,17 @@
 """Benchmark of homes of real size: the cost of learning against the number of devices.
 
     bin/bench scale                  # or: .venv/bin/python benchmarks/bench_scale.py [options]
-    bin/bench scale -- --rooms 1,2,4,8,16,32 --repeats 3 --moonshot
+    bin/bench scale -- --rooms 1,2,4,8,16,32,167 --scenes 8,32,167 --repeats 3
 
-Homes of 1, 2, 4, 8, 16 and 32 rooms of 6 devices (benchmarks/homes.py), each learned from
-nothing by the command line in a fresh data directory: ``homecog train`` and ``homecog build``
-(wall and peak memory of each process), the greedy-optimal rate, the multi tree's precision
-and recall on 2,000 random scenarios (``homecog eval --methods multi``) and its cognition p50
-with explanations. Where the paper's joint table fits (``train --joint``), the same beside it.
-``--moonshot`` adds a building of 167 rooms (1,002 devices), once. The log-log plot of cost
-against devices goes to docs/scale.png.
+Homes of 1 to 32 rooms of 6 devices and a building of 167 rooms (1,002 devices;
+benchmarks/homes.py), and homes of 8, 32 and 167 rooms with a scene per room (its light, its
+desk lamp switched by hand and its TV off) and three whole-home scenes
+(benchmarks/scene_homes.py), each learned from nothing by the command line in a fresh data
+directory: ``homecog train`` and ``homecog build`` (wall and peak memory of each process), the
+greedy-optimal rate, the multi tree's precision and recall on 2,000 random scenarios
+(``homecog eval --methods multi``) and its cognition p50 with explanations. Where the paper's
+joint table fits (``train --joint``), the same beside it. Homes of more than 100 rooms are
+learned once. The log-log plot of cost against devices goes to docs/scale.png.
 """
 
 from __future__ import annotations
@@ -29,6 +31,7 @@ from rich.table import Table
 
 sys.path.insert(0, str(Path(__file__).parent))
 from homes import home_text
+from scene_homes import scene_home_text
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -132,12 +135,20 @@ def plot(rows: list[dict[str, Any]], path: Path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    grouped = [r for r in rows if not r["joint"]]
+    grouped = [r for r in rows if not r["joint"] and r["shape"] == "rooms"]
+    scenes = [r for r in rows if r["shape"] == "scenes"]
     joint = [r for r in rows if r["joint"]]
     fig, ax = plt.subplots(1, 2, figsize=(10, 4.2))
     xs = [r["devices"] for r in grouped]
     ax[0].loglog(xs, [r["total"] for r in grouped], "o-", label="grouped: train + build (wall)")
     ax[0].loglog(xs, [r["train"] for r in grouped], "s--", label="grouped: train", alpha=0.7)
+    if scenes:
+        ax[0].loglog(
+            [r["devices"] for r in scenes],
+            [r["total"] for r in scenes],
+            "d-",
+            label="with scenes: train + build",
+        )
     if joint:
         ax[0].loglog(
             [r["devices"] for r in joint], [r["total"] for r in joint], "x", ms=10, label="joint table"
@@ -155,6 +166,10 @@ def plot(rows: list[dict[str, Any]], path: Path) -> None:
     ax[0].set_title("Learning a home from nothing")
     ax[0].legend(fontsize=7)
     ax[1].loglog(xs, [r["peak"] / 2**20 for r in grouped], "o-", label="grouped")
+    if scenes:
+        ax[1].loglog(
+            [r["devices"] for r in scenes], [r["peak"] / 2**20 for r in scenes], "d-", label="with scenes"
+        )
     if joint:
         ax[1].loglog(
             [r["devices"] for r in joint], [r["peak"] / 2**20 for r in joint], "x", ms=10, label="joint"
@@ -170,24 +185,25 @@ def plot(rows: list[dict[str, Any]], path: Path) -> None:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--rooms", default="1,2,4,8,16,32", help="room counts, comma-separated")
+    parser.add_argument("--rooms", default="1,2,4,8,16,32,167", help="room counts, comma-separated")
+    parser.add_argument("--scenes", default="8,32,167", help="room counts of the homes with scenes")
     parser.add_argument("--repeats", type=int, default=3, help="runs from nothing per home (medians)")
     parser.add_argument("--scenarios", type=int, default=2000)
-    parser.add_argument("--moonshot", action="store_true", help="also a 1,002-device building, once")
     parser.add_argument("--plot", type=Path, default=ROOT / "docs" / "scale.png")
     args = parser.parse_args()
-    console = Console(width=140)
-    rooms = [int(r) for r in args.rooms.split(",")]
+    console = Console(width=160)
+    counts = lambda text: [int(r) for r in text.split(",") if r]  # noqa: E731
+    homes = [("rooms", r, False) for r in counts(args.rooms)] + [("rooms", 1, True)]
+    homes += [("scenes", r, False) for r in counts(args.scenes)]
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
-        homes = [(r, False) for r in rooms] + [(1, True)] + ([(167, False)] if args.moonshot else [])
-        for r, joint in homes:
-            path = Path(tmp) / f"rooms{r}.yaml"
-            path.write_text(home_text(r))
-            console.print(f"rooms{r} ({6 * r} devices){' joint' if joint else ''} ...", style="dim")
+        for shape, r, joint in homes:
+            path = Path(tmp) / f"{shape}{r}.yaml"
+            path.write_text(home_text(r) if shape == "rooms" else scene_home_text(r))
+            console.print(f"{shape}{r} ({6 * r} devices){' joint' if joint else ''} ...", style="dim")
             repeats = 1 if r > 100 else args.repeats
             row = measure(path, joint=joint, repeats=repeats, scenarios=args.scenarios)
-            rows.append({"rooms": r, "devices": 6 * r, "joint": joint, **row})
+            rows.append({"shape": shape, "rooms": r, "devices": 6 * r, "joint": joint, **row})
     table = Table(title="Homes of real size (medians; a fresh data directory each run)", title_justify="left")
     cols = (
         "home",
@@ -204,7 +220,7 @@ def main() -> None:
         table.add_column(col, justify="left" if col == "home" else "right")
     for r in rows:
         table.add_row(
-            f"rooms{r['rooms']}{' joint' if r['joint'] else ''}",
+            f"{r['shape']}{r['rooms']}{' joint' if r['joint'] else ''}",
             str(r["devices"]),
             f"{r['train']:.1f}",
             f"{r['build']:.1f}",
@@ -218,7 +234,7 @@ def main() -> None:
             f"{r['p50'] * 1e6:,.0f} µs",
         )
     console.print(table)
-    by_devices = {r["devices"]: r for r in rows if not r["joint"]}
+    by_devices = {r["devices"]: r for r in rows if not r["joint"] and r["shape"] == "rooms"}
     if 48 in by_devices and 192 in by_devices:
         console.print(
             f"cost of 192 devices / cost of 48: {by_devices[192]['total'] / by_devices[48]['total']:.2f}"

@@ -40,7 +40,7 @@ core = Core(load_home("paper"))
 table = QTable.empty(core)
 start = time.perf_counter()
 steps = run_episodes(core.tables, table.q, table.tried, int(sys.argv[1]), 0, 1.0, 0.2, 2.0, 0.0, 30,
-                     seed_rng(0), NO_STARTS)
+                     seed_rng(0), NO_STARTS, NO_STARTS)
 print(steps, time.perf_counter() - start)
 """
 
@@ -64,7 +64,19 @@ def kernel_rate(core: Core, episodes: int, repeats: int) -> tuple[float, int]:
         table = QTable.empty(core)
         start = time.perf_counter()
         steps = run_episodes(
-            core.tables, table.q, table.tried, episodes, 0, 1.0, 0.2, 2.0, 0.0, 30, seed_rng(0), NO_STARTS
+            core.tables,
+            table.q,
+            table.tried,
+            episodes,
+            0,
+            1.0,
+            0.2,
+            2.0,
+            0.0,
+            30,
+            seed_rng(0),
+            NO_STARTS,
+            NO_STARTS,
         )
         rates.append(steps / (time.perf_counter() - start))
     return statistics.median(rates), steps

@@ -10,6 +10,8 @@ from pathlib import Path
 
 from homecog.environment.core import Core
 from homecog.home import Home, load_home
+from homecog.home.classes import group_classes
+from homecog.home.groups import device_groups
 from homecog.knowledge.ihdr import IHDRTree
 from homecog.knowledge.pipeline import learn_policy
 from homecog.knowledge.samples import SampleSet, make_samples
@@ -24,6 +26,13 @@ EPISODES = {"studio": 30_000, "flat": 600_000}
 @functools.cache
 def home(name: str) -> Home:
     return load_home(name if name == "paper" else HOMES / f"{name}.yaml")
+
+
+def sample_count(name: str) -> int:
+    """A home's samples, learned group by group: per group with services, its classes of contexts
+    × its device states."""
+    h = home(name)
+    return sum(group_classes(h, g).count << len(g.devices) for g in device_groups(h) if g.services)
 
 
 @functools.cache

@@ -11,7 +11,9 @@ from homecog.home import Home
 def reference_step(
     home: Home, codes: tuple[int, ...], states: tuple[bool, ...], pending: frozenset[str], service: str
 ) -> tuple[tuple[bool, ...], frozenset[str], float, bool]:
-    """(states', pending', reward, terminated) by SPEC §3, Eq. 1."""
+    """(states', pending', reward, terminated): Eq. 1, where progress means the distance fell
+    and every device switched was not as wanted, and a step that brings the distance to 0
+    without being progress earns no terminal reward."""
     wanted = home.wanted(codes)
 
     def dist(st: tuple[bool, ...], pend: frozenset[str]) -> int:
@@ -23,9 +25,11 @@ def reference_step(
         new_states[home.device_index(device)] = value
     new_pending = pending - {service}
     before, after = dist(states, pending), dist(tuple(new_states), new_pending)
+    switched = [d for d, (a, b) in enumerate(zip(states, new_states, strict=True)) if a != b]
+    progress = after < before and all(wanted[d] is not None and states[d] != wanted[d] for d in switched)
     r = home.rewards
-    reward = r.progress * (r.magnitude if after < before else -r.magnitude)
-    if after == 0:
+    reward = r.progress * (r.magnitude if progress else -r.magnitude)
+    if after == 0 and (progress or before == 0):
         reward += r.terminal * r.magnitude
     if home.is_prohibited(home.service_index(service), codes, states):
         reward -= r.prohibited * r.magnitude

@@ -8,6 +8,7 @@ import shutil
 from pathlib import Path
 
 import pytest
+from knowledge_fixtures import sample_count
 
 from homecog.cli.main import main
 from homecog.home import load_home
@@ -64,7 +65,7 @@ def test_events_are_learned_in_batches(db, tmp_path, capsys):
     assert set(data) >= {"events", "added", "rejected", "experiences", "seconds"}
     assert data["events"] == 5 and data["batches"] == 3
     assert data["users"] == {"kim": 3, "ann": 2}  # the user column, else --user
-    assert data["experiences"] == 96 + 5
+    assert data["experiences"] == sample_count("studio") + 5
     assert data["added"] >= 1 and data["changed"] >= 1
     ctx = "time=08:00,light=150,activity=work,blind=off,desk_lamp=off,radio=on"
     assert main(["cognize", "--home", STUDIO, "--db", db, "--context", ctx, "--user", "kim", "--json"]) == 0

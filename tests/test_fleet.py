@@ -128,12 +128,18 @@ def test_a_database_that_cannot_be_used_is_one_line(tmp_path, capsys):
 # -- on Ray ---------------------------------------------------------------------------------------
 def write_too_large(folder: Path, name: str = "huge") -> None:
     """A home file that loads but that learning refuses, in the task, after the driver has
-    loaded it: two unused features of 1,000 values each make its largest group's Q table
-    2,592,000,000 states × 4 services, over the size check's limit (not a memory estimate:
-    alike on every machine)."""
-    values = ", ".join(f"v{i}" for i in range(1000))
-    extra = "".join(f"  {f}: {{kind: categorical, values: [{values}]}}\n" for f in ("mood", "weather"))
-    text = home_text(1, name=name).replace("  posture:", extra + "  posture:", 1)
+    loaded it: 31 extra devices switched off only all together (a service that is no scene, since
+    no service of one device switches any of them off) make one group of 31 devices, over the size
+    check's limit of 30 (not a memory estimate: alike on every machine)."""
+    extra = [f"x{i}" for i in range(31)]
+    text = home_text(1, name=name)
+    text = text.replace("devices:\n", "devices:\n" + "".join(f"  {d}: {{room: room1}}\n" for d in extra), 1)
+    off = ", ".join(f"{d}: off" for d in extra)
+    ons = "".join(f"  On_{d}: {{category: switch_on, set: {{{d}: on}}}}\n" for d in extra)
+    text = text.replace(
+        "services:\n", f"services:\n  AllOff: {{category: switch_off, set: {{{off}}}}}\n{ons}", 1
+    )
+    text = text.replace("comfort:\n", "comfort:\n" + "".join(f"  {d}: [{{want: off}}]\n" for d in extra), 1)
     (folder / f"{name}.yaml").write_text(text)
 
 

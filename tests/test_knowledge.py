@@ -12,10 +12,12 @@ from homecog.environment.core import Core
 from homecog.errors import ContextError
 from homecog.evaluation.metrics import scores
 from homecog.evaluation.scenarios import random_scenarios
+from homecog.home.classes import group_classes
 from homecog.home.groups import device_groups
 from homecog.knowledge.ihdr import IHDRTree
 from homecog.knowledge.model import Numeric
-from homecog.knowledge.samples import _axes, policy_samples
+from homecog.knowledge.relevance import axes_of
+from homecog.knowledge.samples import policy_samples
 
 PAPER_FIG9 = [
     (
@@ -93,7 +95,7 @@ def test_every_sample_condition_is_sufficient_and_keeps_what_matters(name):
     service, and every dimension whose change alone flips the decision is among them; the
     same for "nothing to do" (the last column)."""
     ss, space, performed, shape = _performed_table(name)
-    axes = _axes(space)
+    axes = axes_of(space)
     n_dims = len(space.dims)
     assert ss.masks.shape[1] == performed.shape[2]
     for a in range(performed.shape[2]):
@@ -121,9 +123,10 @@ def test_samples_follow_the_policy_and_table5_layout():
     paper = home("paper")
     sets = list(policy_samples(paper, policy("paper")))
     groups = [g for g in device_groups(paper) if g.services]
-    # every start state of every group, never of the joint space (663,552 start states)
-    assert [len(s) for s in sets] == [paper.context_count << len(g.devices) for g in groups]
-    window = sets[0]  # the window with both air conditioners
+    # every start state of every group over its classes of contexts, never of the joint space
+    assert [len(s) for s in sets] == [group_classes(paper, g).count << len(g.devices) for g in groups]
+    assert [len(s.expand()) for s in sets] == [paper.context_count << len(g.devices) for g in groups]
+    window = sets[0].expand()  # the window with both air conditioners, at every context
     s = window[12345]
     assert len(s.services) == len(s.relevant)
     assert all(m > 0 for m in s.relevant)
@@ -136,7 +139,7 @@ def test_samples_follow_the_policy_and_table5_layout():
 
 def test_numeric_readings_lie_inside_their_bins():
     paper = home("paper")
-    for ss in policy_samples(paper, policy("paper")):
+    for ss in (s.expand() for s in policy_samples(paper, policy("paper"))):
         for j, f in enumerate(paper.features):
             if f.bins is None:
                 continue

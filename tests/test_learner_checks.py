@@ -100,7 +100,7 @@ def test_learn_one_equals_learn_many(learned):
     home, policy, tree, _ = learned
     one = tree.clone()
     names, dim_names = home.service_names, tree.space.names
-    for ss in policy_samples(home, policy):
+    for ss in (s.expand() for s in policy_samples(home, policy)):
         dims = ss.dims or tuple(range(len(ss.space.dims)))
         where = ss.services or tuple(range(ss.positions.shape[1]))
 

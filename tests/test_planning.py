@@ -280,7 +280,11 @@ def test_home_check_finds_a_place_the_robot_cannot_reach(capsys, tmp_path):
     walled = tmp_path / "walled.yaml"
     walled.write_text(STUDIO.read_text() + STUDIO_LAYOUT.replace("  doors: [[4, 1, 4, 2]]\n", ""))
     assert main(["home", "check", str(walled)]) == 2
-    assert capsys.readouterr().err.strip() == "homecog: error: place 'kettle' cannot be reached from 'desk'"
+    assert capsys.readouterr().err.strip() == (
+        f"homecog: error: {walled}: layout.objects.tea: 'kettle' (the tea is fetched from there) cannot "
+        "be reached from the robot's start 'desk'; room 'bath' has no door: add one to layout.doors on a "
+        "wall of it"
+    )
     doored = tmp_path / "doored.yaml"
     doored.write_text(STUDIO.read_text() + STUDIO_LAYOUT)
     assert main(["home", "check", str(doored)]) == 0

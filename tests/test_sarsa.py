@@ -44,24 +44,24 @@ def test_policy_takes_the_best_when_all_tried():
     q = np.array([[0.1, 0.9, -1.0]], dtype=np.float32)
     tried = np.array([[0b111]], dtype=np.int64)
     rng = seed_rng(3)
-    assert {int(choose(q, tried, 0, 0.0, rng)) for _ in range(50)} == {1}
+    assert {int(choose(q, tried, 0, 0.0, rng, 1)) for _ in range(50)} == {1}  # the caller's best
 
 
 def test_policy_explores_untried_services_uniformly():
     q = np.array([[5.0, 0.0, 0.0, 0.0]], dtype=np.float32)
     tried = np.array([[0b0001]], dtype=np.int64)  # service 0 tried and best
     rng = seed_rng(5)
-    picks = Counter(int(choose(q, tried, 0, 0.0, rng)) for _ in range(3000))  # ε = 0: always untried
+    picks = Counter(int(choose(q, tried, 0, 0.0, rng, 0)) for _ in range(3000))  # ε = 0: always untried
     assert set(picks) == {1, 2, 3}
     assert all(800 < v < 1200 for v in picks.values())
-    greedy = Counter(int(choose(q, tried, 0, 1.0, rng)) for _ in range(100))  # ε = 1: always best
+    greedy = Counter(int(choose(q, tried, 0, 1.0, rng, 0)) for _ in range(100))  # ε = 1: always best
     assert greedy == Counter({0: 100})
 
 
 def test_policy_handles_more_than_32_services():
     q = np.zeros((1, 40), dtype=np.float32)
     tried = np.array([[0xFFFFFFFF, 0b11111101]], dtype=np.int64)  # only service 33 untried
-    assert int(choose(q, tried, 0, 0.0, seed_rng(1))) == 33
+    assert int(choose(q, tried, 0, 0.0, seed_rng(1), 0)) == 33
 
 
 def test_epsilon_schedule_is_the_papers():
@@ -125,7 +125,8 @@ def test_compiled_kernel_equals_plain_python(tmp_path, studio, studio_core):
 
 
 def _reference_greedy_optimal(home, core, q):
-    """Per start state, by the Home's own rules: greedy steps all progress, none prohibited."""
+    """Per start state, by the Home's own rules: the best service not prohibited at each step,
+    all of them progress."""
     out = np.zeros((core.n_contexts, 1 << core.n_devices), dtype=bool)
     for c in range(core.n_contexts):
         codes = core.codes(c)
@@ -133,7 +134,9 @@ def _reference_greedy_optimal(home, core, q):
             h, n = h0, core.full_needs(c)
             ok = True
             while core.distance(c, h, n) > 0:
-                a = int(np.argmax(q[core.index(c, h, n)]))
+                row = q[core.index(c, h, n)]
+                allowed = [a for a in range(len(row)) if not home.is_prohibited(a, codes, core.states(h))]
+                a = max(allowed, key=lambda a: (row[a], -a)) if allowed else int(np.argmax(row))
                 if home.is_prohibited(a, codes, core.states(h)):
                     ok = False
                     break

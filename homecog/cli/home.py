@@ -52,6 +52,11 @@ def home_show(home: HomeOption = "paper", json: JsonOption = False) -> None:
     stdout.print(
         f"learned in {s['groups']} independent groups, {big_number(s['group_states'])} states in all; "
         f"the largest, {s['largest_group']}, has {big_number(s['largest_group_states'])}"
+        + (
+            f"; {s['scenes']} scenes, each taken where it does the work of several services"
+            if s["scenes"]
+            else ""
+        )
     )
 
     for table in home_tables(h):
@@ -72,15 +77,6 @@ def home_check(
     from homecog.learning.size import check_size, describe
 
     size = check_size(h)
-    if h.layout is not None:  # every place the robot may be sent to must be reachable
-        from homecog.simulation import plan_path
-
-        targets = dict.fromkeys(h.layout.places)
-        for d in h.devices:
-            if not d.iot:
-                targets[h.layout.device_place(d.name)] = None
-        for target in targets:
-            plan_path(h.layout, h.layout.robot, target)
     summary = home_summary(h)
     report = find_conflicts(h)
     summary["unsolvable_start_states"] = report.stuck
@@ -94,7 +90,9 @@ def home_check(
     stdout.print(
         f"ok: {h.source}: home '{h.name}': {summary['features']} features, "
         f"{big_number(summary['contexts'])} contexts, {summary['devices']} devices, "
-        f"{summary['services']} services; {describe(size)}"
+        f"{summary['services']} services"
+        + (f" ({summary['scenes']} of them scenes)" if summary["scenes"] else "")
+        + f"; {describe(size)}"
     )
     if report.stuck:
         stdout.print(

@@ -6,6 +6,7 @@ prints one line on stderr and exits with status 2; nothing is overwritten.
 
 from __future__ import annotations
 
+import logging
 import os
 import sys
 
@@ -51,9 +52,25 @@ app.command()(up.up)
 app.command()(fleet.serve)
 
 
+class _Notices(logging.Handler):
+    """What a command does on its own (learns, builds), one line on stderr, whatever ``--json``."""
+
+    def emit(self, record: logging.LogRecord) -> None:
+        print(f"homecog: {record.getMessage()}", file=sys.stderr, flush=True)
+
+
+def _say_notices() -> None:
+    log = logging.getLogger("homecog.notice")
+    if not any(isinstance(h, _Notices) for h in log.handlers):
+        log.addHandler(_Notices())
+    log.setLevel(logging.INFO)
+    log.propagate = False
+
+
 def main(argv: list[str] | None = None) -> int:
     """Run the command line; errors become one line on stderr and exit status 2."""
     args = sys.argv[1:] if argv is None else argv
+    _say_notices()
     try:
         result = app(args=args, prog_name="homecog", standalone_mode=False)
     except HomecogError as e:

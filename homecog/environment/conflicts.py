@@ -1,9 +1,10 @@
 """Conflicting rules, group by group (``homecog home check``; SPEC §4.1).
 
-A start state is stuck when no sequence of allowed services, each lowering the distance,
-reaches its optimum: a prohibited rule blocks the only way, or no service sets a device the
-comfort rules care about. Groups are independent, so a start state of the home is stuck
-exactly when its part in some group is; each group is checked on its own small space and the
+A start state is stuck when no sequence of allowed services, each of them progress (lowering
+the distance without switching a device away from the state wanted), reaches its optimum: a
+prohibited rule blocks the only way, or no service sets a device the comfort rules care about.
+Groups are independent, so a start state of the home is stuck exactly when its part in some
+group is; each group is checked on its own small space and the
 home's count follows without enumerating the joint space.
 
 >>> from homecog.home import load_home
@@ -20,6 +21,7 @@ import numpy as np
 
 from homecog.environment.core import Core
 from homecog.environment.reachability import optimal_start_states, solvable_start_states
+from homecog.home.classes import group_classes, home_classes, representatives
 from homecog.home.groups import Group, device_groups, project
 from homecog.home.model import Home
 
@@ -51,36 +53,41 @@ def _solvable(core: Core) -> np.ndarray:
 
 
 def find_conflicts(home: Home) -> ConflictReport:
-    """Every group's stuck start states, and how many start states of the home are stuck."""
+    """Every group's stuck start states, and how many start states of the home are stuck.
+
+    Each group is checked over its classes of contexts (:mod:`homecog.home.classes`); counts
+    are of the home's own start states, and an example is a context of the home."""
     n_c = home.context_count
-    ok_counts = []
+    per_group = []
     conflicts = []
     for group in device_groups(home):
+        classes = group_classes(home, group)
         core = Core(project(home, group))
         ok = _solvable(core)
-        ok_counts.append(ok.sum(axis=1))
-        stuck = int((~ok).sum())
+        per_group.append((classes, ok.sum(axis=1), 1 << len(group.devices)))
+        stuck = int(((~ok).sum(axis=1) * classes.weights()).sum())
         if stuck:
             c, h = (int(x[0]) for x in np.nonzero(~ok))
-            example = dict(
-                zip(
-                    home.feature_names,
-                    (f.values[k] for f, k in zip(home.features, core.codes(c), strict=True)),
-                    strict=True,
-                )
-            )
+            codes = np.unravel_index(c, classes.radices)
+            example = {
+                f.name: f.values[classes.members[j][int(k)][0]]
+                for j, (f, k) in enumerate(zip(home.features, codes, strict=True))
+            }
             example |= {d: "on" if h >> i & 1 else "off" for i, d in enumerate(group.devices)}
             conflicts.append(GroupConflict(group, stuck, n_c << len(group.devices), example))
     total = n_c << len(home.devices)
     stuck = 0
-    if conflicts:
-        full = [1 << len(g.devices) for g in device_groups(home)]
-        partial = np.zeros(n_c, dtype=bool)
-        for counts, size in zip(ok_counts, full, strict=True):
-            partial |= counts < size
-        for c in np.flatnonzero(partial).tolist():
-            solvable = 1
-            for counts in ok_counts:
-                solvable *= int(counts[c])
-            stuck += (1 << len(home.devices)) - solvable
+    if conflicts:  # summed over the classes of contexts no rule tells apart, each of its weight
+        every = home_classes(home)
+        codes = representatives(every)
+        partial = np.zeros(len(codes), dtype=bool)
+        for classes, counts, size in per_group:
+            if (counts < size).any():
+                partial |= (counts < size)[classes.indices(codes)]
+        rows, weights = codes[partial], every.weights()[partial].tolist()
+        solvable = [1] * len(rows)
+        for classes, counts, _ in per_group:
+            for i, n in enumerate(counts[classes.indices(rows)].tolist()):
+                solvable[i] *= n
+        stuck = sum(w * ((1 << len(home.devices)) - n) for w, n in zip(weights, solvable, strict=True))
     return ConflictReport(stuck=stuck, start_states=total, groups=conflicts)

@@ -34,11 +34,13 @@ from homecog.environment.kernels import (
     distance,
     is_prohibited,
     popcount,
+    progressed,
     reward,
     step,
     step_many,
 )
 from homecog.environment.reachability import (
+    fewest_steps,
     greedy_outcomes,
     optimal_start_states,
     solvable_start_states,
@@ -57,10 +59,12 @@ __all__ = [
     "argmax_row",
     "build_tables",
     "distance",
+    "fewest_steps",
     "greedy_outcomes",
     "is_prohibited",
     "optimal_start_states",
     "popcount",
+    "progressed",
     "reward",
     "solvable_start_states",
     "solvable_states",
@@ -147,6 +151,11 @@ class Core:
         """Distance to the optimum (pending needs default to all needs of c)."""
         n = self.full_needs(c) if n is None else n
         return int(distance(self.tables.care[c], self.tables.want[c], h, n))
+
+    def progressed(self, c: int, h: int, n: int, h2: int, n2: int) -> bool:
+        """Whether a step from (c, h, n) to (c, h2, n2) is progress (:func:`progressed`)."""
+        care, want = int(self.tables.care[c]), int(self.tables.want[c])
+        return bool(progressed(care, want, h, h2, self.distance(c, h, n), self.distance(c, h2, n2)))
 
     def wanted(self, c: int) -> tuple[bool | None, ...]:
         """Per device, the wanted state in context c (None: don't care)."""

@@ -78,18 +78,34 @@ def is_prohibited(
 
 
 @_inline
+def progressed(care_c: int, want_c: int, h: int, h2: int, before: int, after: int) -> bool:
+    """Whether a step from device states ``h`` to ``h2`` is progress: the distance fell, and every
+    device it switched was not as wanted (and now is). A service that sets several devices may
+    put more right than it puts wrong, or switch a device nobody cares about; neither is
+    progress: the plan would have to put a broken device back, with a service that changes
+    nothing where the plan starts, and the optimum leaves a device nobody cares about as it was."""
+    return after < before and ((h ^ h2) & ~(care_c & (h ^ want_c))) == 0
+
+
+@_inline
 def reward(
     w_terminal: float,
     w_progress: float,
     w_prohibited: float,
     m: float,
+    progress: bool,
     before: int,
     after: int,
     forbidden: bool,
 ) -> float:
-    """Eq. 1: w_p·(±m by progress) + w_t·(m at the optimum) − w_x·(m when prohibited)."""
-    r = w_progress * (m if after < before else -m)
-    if after == 0:
+    """Eq. 1: w_p·(±m by progress) + w_t·(m at the optimum) − w_x·(m when prohibited).
+
+    A step that brings the distance to 0 without being progress — it also switched a device
+    nobody cares about, or put one wrong — earns no terminal reward: the optimum keeps such a
+    device as it was. (With services of one device each every such step is progress, and a
+    useless service at the optimum still earns −2 + 5 = +3: Eq. 1 as before.)"""
+    r = w_progress * (m if progress else -m)
+    if after == 0 and (progress or before == 0):
         r += w_terminal * m
     if forbidden:
         r -= w_prohibited * m
@@ -104,6 +120,39 @@ def argmax_row(q: np.ndarray, s: int) -> int:
         if q[s, a] > q[s, best]:
             best = a
     return best
+
+
+@_inline
+def argmax_allowed(
+    q: np.ndarray,
+    s: int,
+    prohibited_ctx: np.ndarray,
+    rule_start: np.ndarray,
+    rule_ctx: np.ndarray,
+    rule_mask: np.ndarray,
+    rule_val: np.ndarray,
+    c: int,
+    h: int,
+) -> int:
+    """Best service in state s (context c, devices h) among those not prohibited there (the
+    first on ties): the robot never does what it must not, even where the table rates it
+    highest — Eq. 1's penalty can be outweighed by a terminal reward a prohibited service would
+    reach at once. Where every service is prohibited, the best of all."""
+    best = -1
+    for a in range(q.shape[1]):
+        if best >= 0 and q[s, a] <= q[s, best]:
+            continue
+        if not is_prohibited(prohibited_ctx, rule_start, rule_ctx, rule_mask, rule_val, c, h, a):
+            best = a
+    return argmax_row(q, s) if best < 0 else best
+
+
+@_jit
+def best_allowed(t: Tables, q: np.ndarray, c: int, h: int, n: int) -> int:
+    """:func:`argmax_allowed` in state (c, h, n) of a table over ``t`` (for callers in Python)."""
+    k = t.need_count[c]
+    s = t.offsets[c] + (h << k) + n
+    return argmax_allowed(q, s, t.prohibited_ctx, t.rule_start, t.rule_ctx, t.rule_mask, t.rule_val, c, h)
 
 
 @_jit
@@ -129,7 +178,8 @@ def step(t: Tables, c: int, h: int, n: int, a: int) -> tuple[int, int, float, bo
     h2, n2 = apply(set_mask, set_val, need_pos, c, h, n, a)
     after = distance(care[c], want[c], h2, n2)
     forbidden = is_prohibited(prohibited_ctx, rule_start, rule_ctx, rule_mask, rule_val, c, h, a)
-    return h2, n2, reward(w[0], w[1], w[2], w[3], before, after, forbidden), after == 0, forbidden
+    good = progressed(care[c], want[c], h, h2, before, after)
+    return h2, n2, reward(w[0], w[1], w[2], w[3], good, before, after, forbidden), after == 0, forbidden
 
 
 @_jit
@@ -167,6 +217,7 @@ def step_many(
         forbidden[i] = is_prohibited(
             prohibited_ctx, rule_start, rule_ctx, rule_mask, rule_val, ci, h[i], a[i]
         )
-        rewards[i] = reward(w[0], w[1], w[2], w[3], before, after, forbidden[i])
+        good = progressed(care[ci], want[ci], h[i], h2[i], before, after)
+        rewards[i] = reward(w[0], w[1], w[2], w[3], good, before, after, forbidden[i])
         done[i] = after == 0
     return h2, n2, rewards, done, forbidden

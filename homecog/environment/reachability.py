@@ -1,6 +1,11 @@
 """Which start states reach their optimum, over the whole table of a home at once: by the greedy
 roll-out of a Q table (:func:`greedy_outcomes`), by some path the rules leave
-(:func:`solvable_states`), or already there (:func:`optimal_start_states`).
+(:func:`fewest_steps`, :func:`solvable_states`), or already there (:func:`optimal_start_states`).
+
+A path is a sequence of services, none prohibited, each of them progress (the distance falls
+and no device that was as wanted is switched away from it: :func:`~homecog.environment.kernels.progressed`).
+A roll-out is optimal when it is such a path to the optimum in the fewest services: with
+services that each set one device, in exactly ``distance`` steps.
 
 >>> from homecog.home import load_home
 >>> from homecog.environment.tables import build_tables
@@ -15,20 +20,14 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from homecog.environment.kernels import apply, argmax_row, distance, is_prohibited
+from homecog.environment.kernels import apply, argmax_allowed, distance, is_prohibited, progressed
 from homecog.environment.tables import Tables
 
 _jit = numba.njit(cache=True, nogil=True)
 
 
 @_jit
-def greedy_outcomes(t: Tables, q: np.ndarray) -> np.ndarray:
-    """Per start state (c, h, n = needs(c)), whether the greedy roll-out is optimal.
-
-    Optimal: every step lowers the distance, no step is prohibited, and the optimum
-    is reached — with one device or need per service, exactly ``distance`` steps.
-    The result is indexed ``[c, h]``.
-    """
+def _greedy(t: Tables, q: np.ndarray, fewest: np.ndarray) -> np.ndarray:
     (
         n_devices,
         need_count,
@@ -54,25 +53,44 @@ def greedy_outcomes(t: Tables, q: np.ndarray) -> np.ndarray:
             h, n = h0, (1 << k) - 1
             d = distance(care[c], want[c], h, n)
             ok = True
+            steps = 0
             while d > 0:
-                a = argmax_row(q, offsets[c] + (h << k) + n)
+                s = offsets[c] + (h << k) + n
+                a = argmax_allowed(q, s, prohibited_ctx, rule_start, rule_ctx, rule_mask, rule_val, c, h)
                 if is_prohibited(prohibited_ctx, rule_start, rule_ctx, rule_mask, rule_val, c, h, a):
                     ok = False
                     break
-                h, n = apply(set_mask, set_val, need_pos, c, h, n, a)
-                d2 = distance(care[c], want[c], h, n)
-                if d2 >= d:
+                h2, n = apply(set_mask, set_val, need_pos, c, h, n, a)
+                d2 = distance(care[c], want[c], h2, n)
+                if not progressed(care[c], want[c], h, h2, d, d2):
                     ok = False
                     break
-                d = d2
+                h, d = h2, d2
+                steps += 1
+            if ok and fewest.size:
+                ok = steps == fewest[offsets[c] + (h0 << k) + (1 << k) - 1]
             out[c, h0] = ok
     return out
 
 
+def greedy_outcomes(t: Tables, q: np.ndarray) -> np.ndarray:
+    """Per start state (c, h, n = needs(c)), whether the greedy roll-out (the best service not
+    prohibited, :func:`~homecog.environment.kernels.argmax_allowed`) is optimal: a path to the
+    optimum (see the module) in the fewest services the table can choose (a column that is −inf
+    everywhere, a scene in the joint table, is none of them). Indexed ``[c, h]``."""
+    usable = ~np.isneginf(q).all(axis=0) if q.shape[0] else np.ones(q.shape[1], dtype=bool)
+    several = bool((np.bitwise_count(t.set_mask[usable]) > 1).any())
+    return _greedy(t, q, fewest_steps(t, usable) if several else np.zeros(0, dtype=np.int16))
+
+
+def fewest_steps(t: Tables, usable: np.ndarray | None = None) -> np.ndarray:
+    """Per state, the fewest services (of those ``usable``, default all) of a path to the
+    optimum (see the module), −1 where the rules leave none. Indexed by state number."""
+    return _fewest(t, np.ones(len(t.set_mask), dtype=np.bool_) if usable is None else usable)
+
+
 @_jit
-def solvable_states(t: Tables) -> np.ndarray:
-    """Per state, whether some sequence of non-prohibited services, each lowering the
-    distance, reaches the optimum (the rules leave a way). Indexed by state number."""
+def _fewest(t: Tables, usable: np.ndarray) -> np.ndarray:
     (
         n_devices,
         need_count,
@@ -90,9 +108,9 @@ def solvable_states(t: Tables) -> np.ndarray:
         _,
     ) = t
     n_services = len(set_mask)
-    ok = np.zeros(offsets[-1], dtype=np.bool_)
+    steps = np.full(offsets[-1], -1, dtype=np.int16)
     max_d = n_devices + need_count.max()
-    for level in range(max_d + 1):  # a state's successors on a good path are nearer
+    for level in range(max_d + 1):  # a state's successors on a path are nearer
         for c in range(len(need_count)):
             k = need_count[c]
             for h in range(1 << n_devices):
@@ -102,16 +120,28 @@ def solvable_states(t: Tables) -> np.ndarray:
                         continue
                     s = offsets[c] + (h << k) + n
                     if d == 0:
-                        ok[s] = True
+                        steps[s] = 0
                         continue
+                    best = -1
                     for a in range(n_services):
+                        if not usable[a]:
+                            continue
                         if is_prohibited(prohibited_ctx, rule_start, rule_ctx, rule_mask, rule_val, c, h, a):
                             continue
                         h2, n2 = apply(set_mask, set_val, need_pos, c, h, n, a)
-                        if distance(care[c], want[c], h2, n2) < d and ok[offsets[c] + (h2 << k) + n2]:
-                            ok[s] = True
-                            break
-    return ok
+                        d2 = distance(care[c], want[c], h2, n2)
+                        if not progressed(care[c], want[c], h, h2, d, d2):
+                            continue
+                        rest = steps[offsets[c] + (h2 << k) + n2]
+                        if rest >= 0 and (best < 0 or rest + 1 < best):
+                            best = rest + 1
+                    steps[s] = best
+    return steps
+
+
+def solvable_states(t: Tables) -> np.ndarray:
+    """Per state, whether some path (see the module) reaches the optimum. Indexed by state number."""
+    return fewest_steps(t) >= 0
 
 
 def optimal_start_states(t: Tables) -> np.ndarray:

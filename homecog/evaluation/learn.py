@@ -21,7 +21,6 @@ from homecog.errors import EvaluationError
 from homecog.evaluation.baselines import BASELINES, OnlineMethod
 from homecog.evaluation.methods import METHODS, HoeffdingMethod, KMeansMethod, Method, TreeMethod
 from homecog.home.codec import Space
-from homecog.home.encoding import context_index
 from homecog.home.model import Home
 from homecog.knowledge.ihdr import IHDRTree
 from homecog.knowledge.sample_log import SampleLog
@@ -105,7 +104,6 @@ def learn_methods(
     if baselines and not policy.joint:
         codes, readings = _draw_starts(home, DRAWS, np.random.default_rng([seed, 7]))
         n_f = len(home.features)
-        ctx = np.array([context_index(home, row) for row in codes[:, :n_f].tolist()], dtype=np.int64)
         positions = np.full((DRAWS, len(home.services)), -1, dtype=np.int8)
         draws = SampleSet(
             space=Space(home),
@@ -127,7 +125,7 @@ def learn_methods(
             h = np.zeros(DRAWS, dtype=np.int64)
             for k, d in enumerate(group.device_index):
                 h |= codes[:, n_f + d].astype(np.int64) << k
-            rows = ctx * (1 << len(group.devices)) + h
+            rows = samples.rows(codes, h)
             draws.positions[:, list(group.service_index)] = samples.positions[rows]
         elif baselines and policy.joint:
             draws = samples

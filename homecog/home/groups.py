@@ -4,7 +4,10 @@ Two devices are in one group when one service sets both, or when a prohibited ru
 service that sets one names the other's state. A service belongs to the group of the
 devices it sets; an interaction service is a group of its own unless a prohibited rule ties
 it to a device. The comfort and needs rules — the reward the robot is learning — never
-decide a group.
+decide a group. A scene (:mod:`homecog.home.scenes`: a service that sets several devices,
+each as a service of one device also does) ties nothing: it belongs to the group that holds
+all its devices, and where they lie in several groups it belongs to none, and each group
+learns its part of it as the group's own services.
 
 No service of one group changes, or is forbidden by, the devices of another, so each group
 is a small environment of its own over (context, the group's devices, the group's pending
@@ -26,7 +29,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from homecog.home.model import ComfortRule, Condition, Home, Service
+from homecog.home.classes import group_classes
+from homecog.home.model import ComfortRule, Condition, Feature, Home, Service
 
 
 @dataclass(frozen=True)
@@ -89,16 +93,29 @@ def _find_groups(home: Home) -> tuple[Group, ...]:
         if rx != ry:
             parent[max(rx, ry)] = min(rx, ry)
 
+    from homecog.home.scenes import scene_candidates
+
+    scenes = set(scene_candidates(home))
     for a, service in enumerate(home.services):
+        if a in scenes:
+            continue
         touched = {home.device_index(d) for d, _ in service.sets}
         for cond in home.prohibited[a]:
             touched |= _named_devices(cond)
         for d in touched:
             union(n_d + a, d)
+    spread = set()
+    for a in scenes:
+        roots = {find(home.device_index(d)) for d, _ in home.services[a].sets}
+        if len(roots) == 1:
+            union(n_d + a, roots.pop())
+        else:
+            spread.add(a)
 
     members: dict[int, list[int]] = {}
     for x in range(len(parent)):
-        members.setdefault(find(x), []).append(x)
+        if x - n_d not in spread:
+            members.setdefault(find(x), []).append(x)
     groups = []
     for i, root in enumerate(sorted(members)):
         nodes = members[root]
@@ -116,25 +133,50 @@ def _find_groups(home: Home) -> tuple[Group, ...]:
     return tuple(groups)
 
 
+_OWNERS: dict[str, tuple[int, ...]] = {}
+
+
 def group_of_service(home: Home) -> tuple[int, ...]:
-    """Per service (in home order), the index of its group."""
-    out = [0] * len(home.services)
+    """Per service (in home order), the index of its group (−1: a scene across groups)."""
+    key = home.content_hash
+    if key and key in _OWNERS:
+        return _OWNERS[key]
+    out = [-1] * len(home.services)
     for g in device_groups(home):
         for a in g.service_index:
             out[a] = g.index
+    if key:
+        if len(_OWNERS) >= 64:
+            _OWNERS.clear()
+        _OWNERS[key] = tuple(out)
     return tuple(out)
 
 
-def project(home: Home, group: Group) -> Home:
-    """The home seen by one group: every context feature, the group's devices and services,
+def project(home: Home, group: Group, *, classes: bool = True) -> Home:
+    """The home seen by one group: the context features, the group's devices and services,
     their comfort, needs and prohibited rules (device conditions renumbered), the rewards.
 
     Learning the projection is learning the group: its optimum is the home's optimum on the
     group's devices and needs, and its distance is the group's share of the home's distance.
+    With ``classes`` (the default) each feature's values are the group's classes of them
+    (:mod:`homecog.home.classes`): values no rule of the group tells apart are one value,
+    named by its values joined with ``+``.
     """
     local = {d: i for i, d in enumerate(group.device_index)}
+    cls = group_classes(home, group) if classes else None
+    features = home.features
+    if cls is not None:
+        features = tuple(
+            Feature(
+                name=f.name, kind="categorical", values=tuple("+".join(f.values[k] for k in m) for m in ms)
+            )
+            if len(ms) < f.radix
+            else f
+            for f, ms in zip(home.features, cls.members, strict=True)
+        )
 
     def renumber(cond: Condition) -> Condition:
+        cond = cls.condition(cond) if cls is not None else cond
         return Condition(
             features=cond.features,
             devices=tuple((local[d], allowed) for d, allowed in cond.devices),
@@ -150,7 +192,7 @@ def project(home: Home, group: Group) -> Home:
     )
     projected = Home(
         name=f"{home.name}[{group.index}]",
-        features=home.features,
+        features=features,
         devices=tuple(home.devices[d] for d in group.device_index),
         services=services,
         comfort=comfort,
@@ -160,7 +202,8 @@ def project(home: Home, group: Group) -> Home:
         description=f"{group.label} of {home.name}",
         source=home.source,
     )
-    object.__setattr__(projected, "content_hash", f"{home.content_hash}/{group.index}")
+    tag = "" if cls is None or cls.trivial else "c"
+    object.__setattr__(projected, "content_hash", f"{home.content_hash}/{group.index}{tag}")
     return projected
 
 

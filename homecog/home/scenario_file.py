@@ -30,6 +30,7 @@ from homecog.errors import ContextError, EvaluationError
 from homecog.home.codec import Point, Space, is_missing, parse_services
 from homecog.home.model import Home
 from homecog.home.states import parse_state
+from homecog.home.truth import TruthChoices, truth_with_choices
 from homecog.names import user_name_problem
 from homecog.text_files import text_lines
 
@@ -38,41 +39,29 @@ from homecog.text_files import text_lines
 class Scenario:
     """A context as a scenario-file row, its point, and the services the truth home wants.
 
-    ``truth`` is the canonical optimal set; ``choices`` holds, for every group of devices where
-    more than one set is optimal (services that set several devices), that group's optimal
-    sets, the canonical one first.
+    ``truth`` is the canonical optimal set; ``choices``, where more than one set is optimal
+    (services that set several devices), the groups' optimal sets
+    (:class:`~homecog.home.truth.TruthChoices`).
     """
 
     context: dict[str, str]
     point: Point
     truth: frozenset[str]
-    choices: tuple[tuple[frozenset[str], ...], ...] = ()
+    choices: TruthChoices | tuple[()] = ()
     user: str | None = None  # an event file's ``user`` column, where it may have one
     timestamp: datetime | None = None  # an event file's ``timestamp``
 
     def truth_for(self, predicted: Sequence[str]) -> frozenset[str]:
         """The optimal set that agrees best with a prediction: most services in common, then
-        fewest differences — chosen group by group, since both counts add up over groups."""
-        if not self.choices:
-            return self.truth
-        p = set(predicted)
-        out = set(self.truth)
-        for options in self.choices:
-            out -= options[0]
-            out |= max(options, key=lambda t: (len(p & t), -len(t ^ p)))
-        return frozenset(out)
+        fewest differences (:meth:`~homecog.home.truth.TruthChoices.pick`)."""
+        return self.choices.pick(predicted) if self.choices else self.truth
 
 
-def truth_of(home: Home, point: Point) -> tuple[frozenset[str], tuple[tuple[frozenset[str], ...], ...]]:
-    """The canonical optimal set of a point under ``home`` and the groups' choices."""
-    from homecog.home.truth import choices
-
+def truth_of(home: Home, point: Point) -> tuple[frozenset[str], TruthChoices | tuple[()]]:
+    """The canonical optimal set of a point under ``home`` and, where several are optimal, the
+    choices."""
     n_f = len(home.features)
-    per_group = choices(home, point.codes[:n_f], tuple(bool(c) for c in point.codes[n_f:]))
-    names = home.service_names
-    truth = frozenset(names[a] for c in per_group for a in c[0])
-    ambiguous = tuple(tuple(frozenset(names[a] for a in s) for s in c) for c in per_group if len(c) > 1)
-    return truth, ambiguous
+    return truth_with_choices(home, point.codes[:n_f], tuple(bool(c) for c in point.codes[n_f:]))
 
 
 def load_scenarios(

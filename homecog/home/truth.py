@@ -1,12 +1,14 @@
 """The ground truth of a context (SPEC §3, §9): the sets of services that take it to its
-optimum — the services of a sequence in which each service lowers the distance and none is
+optimum in the fewest services — the services of a sequence in which each service is progress
+(the distance falls, and no device that was as wanted is switched away from it) and none is
 prohibited.
 
 No service of one independent group (:mod:`homecog.home.groups`) changes another group's
 devices or needs, or is forbidden by them, so a set is optimal exactly when its part in every
 group is optimal for that group: the search runs group by group and its cost grows with the
 number of devices, not with 2^devices. The optimal sets of the home are the products of the
-groups' sets.
+groups' sets, with scenes in the place of the services they do the work of
+(:func:`homecog.home.scenes.compose`).
 
 >>> from homecog.home import load_home_text
 >>> home = load_home_text('''
@@ -24,17 +26,20 @@ groups' sets.
 ...   heater: [{when: {who: [someone]}, want: on}, {want: off}]
 ... ''')
 >>> codes, states = home.discretize({"who": "someone", "hood": "on", "speaker": "on", "heater": "off"})
->>> [sorted(s) for s in optimal_service_sets(home, codes, states)][:2]
-[['AllQuiet', 'HeatOn'], ['HeatOn', 'HoodOff', 'MusicOff']]
+>>> [sorted(s) for s in optimal_service_sets(home, codes, states)]
+[['AllQuiet', 'HeatOn']]
 """
 
 from __future__ import annotations
 
 import itertools
+import math
 from collections.abc import Sequence
+from dataclasses import dataclass
 
 from homecog.home.groups import Group, device_groups
 from homecog.home.model import Home
+from homecog.home.scenes import compose, covered_by, device_positions
 
 Choice = tuple[frozenset[int], ...]  # a group's optimal sets of service positions, best first
 
@@ -53,19 +58,32 @@ def group_choices(
     wanted: Sequence[bool | None] | None = None,
     needed: Sequence[int] | None = None,
 ) -> Choice:
-    """The optimal sets of one group's services (smallest first, then fewest devices set, then
-    service order); where the rules leave no way, one setter per wrong device, without order.
-    ``wanted`` and ``needed`` (the home's, for this context) are computed when not given."""
+    """The optimal sets of one group's services: the smallest (then fewest devices set, then
+    service order first); where the rules leave no way, one setter per wrong device, without
+    order. ``wanted`` and ``needed`` (the home's, for this context) are computed when not given."""
     wanted = home.wanted(codes) if wanted is None else wanted
     needed = home.needs_of(codes) if needed is None else needed
     needs = frozenset(a for a in needed if a in group.service_index)
-    mine = group.device_index
-    effects = {
-        a: tuple((home.device_index(d), v) for d, v in home.services[a].sets) for a in group.service_index
+    mine = group.device_index  # the search runs over the group's devices only
+    local = {d: k for k, d in enumerate(mine)}
+    want = [wanted[d] for d in mine]
+    index = device_positions(home)
+    effects = {a: tuple((local[index[d]], v) for d, v in home.services[a].sets) for a in group.service_index}
+    # each service's prohibited rules: those whose context part matches, as (device, allowed) pairs
+    rules = {
+        a: [
+            tuple((local[d], allowed) for d, allowed in cond.devices)
+            for cond in home.prohibited[a]
+            if all(codes[f] in allowed for f, allowed in cond.features)
+        ]
+        for a in group.service_index
     }
 
+    def forbidden(a: int, st: tuple[bool, ...]) -> bool:
+        return any(all(st[k] in allowed for k, allowed in rule) for rule in rules[a])
+
     def distance(st: tuple[bool, ...], pending: frozenset[int]) -> int:
-        return sum(1 for d in mine if wanted[d] is not None and st[d] != wanted[d]) + len(pending)
+        return sum(1 for k, w in enumerate(want) if w is not None and st[k] != w) + len(pending)
 
     memo: dict[tuple[tuple[bool, ...], frozenset[int]], set[frozenset[int]]] = {}
 
@@ -76,32 +94,34 @@ def group_choices(
         d = distance(st, pending)
         out: set[frozenset[int]] = {frozenset()} if d == 0 else set()
         for a, effect in effects.items():
-            if d == 0 or len(out) >= limit or home.is_prohibited(a, codes, st):
+            if d == 0 or len(out) >= limit or forbidden(a, st):
                 continue
             if effect:
                 nxt = list(st)
-                for dev, value in effect:
-                    nxt[dev] = value
+                for k, value in effect:
+                    nxt[k] = value
                 st2, pend2 = tuple(nxt), pending
             else:
                 st2, pend2 = st, pending - {a}
-            if distance(st2, pend2) < d:
+            # every device switched must have been wrong (see kernels.progressed)
+            broke = any(y != x and (w is None or x == w) for x, y, w in zip(st, st2, want, strict=True))
+            if distance(st2, pend2) < d and not broke:
                 out |= {rest | {a} for rest in paths(st2, pend2)}
         memo[key] = out
         return out
 
-    start = tuple(bool(x) for x in states)
+    start = tuple(bool(states[d]) for d in mine)
     found = paths(start, needs)
     if not found:  # conflicting rules: fall back to one setter per wrong device, no order
         chosen = set(needs)
-        for d in mine:
-            w = wanted[d]
-            if w is not None and start[d] != w:
-                setter = next((a for a, e in effects.items() if (d, w) in e), None)
+        for k, w in enumerate(want):
+            if w is not None and start[k] != w:
+                setter = next((a for a, e in effects.items() if (k, w) in e), None)
                 if setter is not None:
                     chosen.add(setter)
         found = {frozenset(chosen)}
-    return tuple(sorted(found, key=lambda c: _key(home, c)))
+    fewest = min(len(c) for c in found)
+    return tuple(sorted((c for c in found if len(c) == fewest), key=lambda c: _key(home, c)))
 
 
 def choices(home: Home, codes: Sequence[int], states: Sequence[bool], limit: int = 256) -> list[Choice]:
@@ -114,14 +134,90 @@ def choices(home: Home, codes: Sequence[int], states: Sequence[bool], limit: int
     ]
 
 
+def composed(
+    home: Home, codes: Sequence[int], states: Sequence[bool], chosen: frozenset[int]
+) -> frozenset[int]:
+    """A union of the groups' optimal sets with scenes in the place of the services they do the
+    work of (:func:`homecog.home.scenes.compose`)."""
+    return frozenset(compose(home, codes, states, sorted(chosen)))
+
+
 def optimal_service_sets(
     home: Home, codes: Sequence[int], states: Sequence[bool], limit: int = 256
 ) -> list[frozenset[str]]:
-    """Every optimal set of the home (at most ``limit``), best first as in :func:`group_choices`;
-    the first is the union of every group's first."""
+    """Every optimal set of the home (at most ``limit``), best first as in :func:`group_choices`:
+    the groups' sets combined, scenes composed, the fewest services kept."""
     per_group = choices(home, codes, states, limit)
     fixed = frozenset().union(*(c[0] for c in per_group if len(c) == 1))
     open_ = [c for c in per_group if len(c) > 1]
-    combos = [fixed.union(*parts) for parts in itertools.islice(itertools.product(*open_), limit)]
-    combos.sort(key=lambda c: _key(home, c))
-    return [frozenset(home.services[a].name for a in c) for c in combos]
+    combos = {
+        composed(home, codes, states, fixed.union(*parts))
+        for parts in itertools.islice(itertools.product(*open_), limit)
+    }
+    fewest = min(len(c) for c in combos)
+    ranked = sorted((c for c in combos if len(c) == fewest), key=lambda c: _key(home, c))
+    return [frozenset(home.services[a].name for a in c) for c in ranked]
+
+
+@dataclass(frozen=True)
+class TruthChoices:
+    """A context's optimal sets where more than one is optimal: per group with several, its
+    sets (the canonical first); and the canonical union of every group's, before scenes.
+    :meth:`pick` gives the optimal set that agrees best with an answer — most services in
+    common, then fewest differences — over every combination of the groups' sets with the
+    scenes composed (where there are at most 256; beyond, group by group, a scene of the answer
+    counting for the services it does)."""
+
+    home: Home
+    codes: tuple[int, ...]
+    states: tuple[bool, ...]
+    groups: tuple[tuple[frozenset[int], ...], ...]
+    base: frozenset[int]
+
+    def pick(self, predicted: Sequence[str]) -> frozenset[str]:
+        names = self.home.service_names
+        said = set(predicted)
+
+        def agreement(t: frozenset[str]) -> tuple[int, int]:
+            return len(said & t), -len(t ^ said)
+
+        combos = math.prod(len(options) for options in self.groups)
+        if combos <= 256:  # every combination, scenes composed: the best exactly
+            best = max(
+                (
+                    frozenset(
+                        names[a] for a in composed(self.home, self.codes, self.states, self._union(parts))
+                    )
+                    for parts in itertools.product(*self.groups)
+                ),
+                key=agreement,
+            )
+            return best
+        covered = covered_by(self.home)
+        said |= {s for s in covered if covered[s] & said}
+        out = set(self.base)
+        for options in self.groups:
+            named = [frozenset(names[a] for a in t) for t in options]
+            best_i = max(range(len(options)), key=lambda i: agreement(named[i]))
+            out = (out - options[0]) | options[best_i]
+        return frozenset(names[a] for a in composed(self.home, self.codes, self.states, frozenset(out)))
+
+    def _union(self, parts: Sequence[frozenset[int]]) -> frozenset[int]:
+        out = set(self.base)
+        for options, part in zip(self.groups, parts, strict=True):
+            out = (out - options[0]) | part
+        return frozenset(out)
+
+
+def truth_with_choices(
+    home: Home, codes: Sequence[int], states: Sequence[bool]
+) -> tuple[frozenset[str], TruthChoices | tuple[()]]:
+    """The canonical optimal set of a context and, where several are optimal, the choices."""
+    per_group = choices(home, codes, states)
+    base = frozenset().union(*(c[0] for c in per_group)) if per_group else frozenset()
+    chosen = composed(home, codes, states, base)
+    truth = frozenset(home.services[a].name for a in chosen)
+    several = tuple(c for c in per_group if len(c) > 1)
+    if not several:
+        return truth, ()
+    return truth, TruthChoices(home, tuple(codes), tuple(bool(x) for x in states), several, base)

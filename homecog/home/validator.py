@@ -16,6 +16,7 @@ from __future__ import annotations
 
 from homecog.home.content import content_hash
 from homecog.home.context_section import ContextSection
+from homecog.home.floor import check_floor
 from homecog.home.home_assistant import parse_home_assistant
 from homecog.home.household import parse_household
 from homecog.home.layout import parse_layout
@@ -84,6 +85,13 @@ class HomeValidator(ContextSection, RuleSections):
                 devices={d.name: (d.room, d.iot) for d in devices},
                 interaction={s.name for s in services if not s.sets},
                 services={s.name for s in services},
+            )
+            location = next((f for f in features if f.name == "location" and f.is_discrete), None)
+            check_floor(
+                layout,
+                locations=location.values if location is not None else (),
+                devices={d.name: (d.room, d.iot) for d in devices},
+                fail=self.fail,
             )
 
         home = Home(

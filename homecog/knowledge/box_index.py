@@ -114,6 +114,20 @@ class BoxIndex:
         entry = self.by_mask.get(mask)
         return None if entry is None else entry[1].get(key)
 
+    def covering_box(self, mask: int, values: Sequence[frozenset[int]], limit: int = 4096) -> Cluster | None:
+        """The one box over ``mask`` that holds every point of a box of values (its values per
+        dimension of ``mask``, lowest first), or None; boxes of more than ``limit`` points are
+        not looked into."""
+        entry = self.by_mask.get(mask)
+        size = 1
+        for v in values:
+            size *= len(v)
+        if entry is None or size > limit:
+            return None
+        found = {id(entry[1].get(key)): entry[1].get(key) for key in itertools.product(*values)}
+        (hit,) = found.values() if len(found) == 1 else (None,)
+        return hit
+
 
 def distinct_rows(
     masks: np.ndarray, codes: np.ndarray, radices: tuple[int, ...]

@@ -53,7 +53,8 @@ import numpy as np
 from homecog.errors import ContextError
 from homecog.home.codec import Point, Space
 from homecog.home.model import Home
-from homecog.knowledge.box_index import BoxIndex, distinct_rows, group_min_max
+from homecog.knowledge.batch import learn_sample_set
+from homecog.knowledge.box_index import BoxIndex
 from homecog.knowledge.corrections import Example, UserLayers
 from homecog.knowledge.group_index import GroupIndex
 from homecog.knowledge.model import (
@@ -61,7 +62,6 @@ from homecog.knowledge.model import (
     Cluster,
     Condition,
     Node,
-    bits,
 )
 from homecog.knowledge.search import TreeSearch
 from homecog.knowledge.state import NodeState, TreeState, signature
@@ -227,72 +227,12 @@ class IHDRTree(ClusterUpdates, TreeSearch):
         """Learn a :class:`~homecog.knowledge.samples.SampleSet` at once.
 
         The same as ``learn_one`` for each sample in order, but each distinct cluster is
-        learned once with its count, which is what makes building from 663,552 samples quick.
+        learned once with its count, which is what makes building from 663,552 samples quick. A
+        group's samples over its classes of contexts are learned as boxes of the classes' values
+        (multi), or first expanded to the home's contexts (paper, whose clusters keep readings).
         """
-        codes, readings, positions, masks = samples.codes, samples.readings, samples.positions, samples.masks
-        local_dims = samples.space.dims
-        n_dims = len(local_dims)
-        # a group's samples: their dimensions and services at their places in the whole home
-        dims = samples.dims if samples.dims is not None else tuple(range(n_dims))
-        n_services = positions.shape[1]
-        where = samples.services if samples.services is not None else tuple(range(n_services))
-        numeric = [j for j, d in enumerate(local_dims) if d.numeric]
-        radices = tuple(len(d.values) for d in local_dims)
-        idle = (positions < 0).all(axis=1)
-        done = positions >= 0
-        for a in range(n_services):
-            both = done & done[:, [a]]
-            self._precedence[where[a], list(where)] += (both & (positions > positions[:, [a]])).sum(axis=0)
-        self._before = None
-        width = len(self._space)
-        for a in range(n_services + 1):
-            if a < n_services:
-                rows = np.flatnonzero(positions[:, a] >= 0)
-                row_masks = masks[rows, a]
-                row_pos = positions[rows, a].astype(np.float64)
-            else:
-                rows = np.flatnonzero(idle)
-                if masks.shape[1] > n_services:
-                    row_masks = masks[rows, n_services]
-                else:
-                    row_masks = np.full(len(rows), (1 << n_dims) - 1, dtype=np.int64)
-                row_pos = np.zeros(len(rows))
-            if rows.size == 0:
-                continue
-            first, inverse, counts = distinct_rows(row_masks, codes[rows], radices)
-            pos_sums = np.bincount(inverse, weights=row_pos, minlength=len(first))
-            stats = {}
-            # readings matter to the paper's clusters (mean ± range); multi keeps bins only
-            if self.mode == "paper" and numeric:
-                grouped = np.argsort(inverse, kind="stable")
-                for j in numeric:
-                    vals = readings[rows, j]
-                    low, high = group_min_max(grouped, inverse, vals, len(first))
-                    stats[j] = (np.bincount(inverse, weights=vals, minlength=len(first)), low, high)
-            target = where[a] if a < n_services else len(self.home.services)
-            order = np.argsort(first, kind="stable")  # in the order the samples came
-            picked = rows[first[order]]
-            row_codes = codes[picked].tolist()
-            row_readings = readings[picked].tolist()
-            local_masks = row_masks[first[order]].tolist()
-            row_counts, row_sums = counts[order].tolist(), pos_sums[order].tolist()
-            row_stats = {j: [stats[j][k][order].tolist() for k in range(3)] for j in stats}
-            for i in range(len(order)):
-                local_mask = local_masks[i]
-                full_codes = [0] * width
-                full_readings: list[float | None] = [None] * width
-                mask = 0
-                for j in bits(local_mask):
-                    g = dims[j]
-                    mask |= 1 << g
-                    full_codes[g] = row_codes[i][j]
-                    r = row_readings[i][j]
-                    full_readings[g] = None if r != r else r  # NaN: not a reading
-                extra = {dims[j]: (st[0][i], st[1][i], st[2][i]) for j, st in row_stats.items()}
-                self._learn_row(
-                    target, mask, tuple(full_codes), tuple(full_readings), row_counts[i], row_sums[i], extra
-                )
-        self.n_experiences += len(codes)
+        learn_sample_set(self, samples)
+        self.n_experiences += len(samples.codes)
 
     def correct_one(
         self,

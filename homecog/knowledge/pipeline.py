@@ -3,10 +3,14 @@
 Commands that need a Q table or a tree find the ones earlier commands made for the same
 home (cached under the data directory by the home's content hash) or make them (SPEC §11).
 A home is learned group by group by default; ``joint`` asks for the paper's one table.
+Whenever it learns or builds on its own, it says so, and where it keeps what it makes, on the
+``homecog.notice`` logger (the command line prints it on stderr): a user who points
+``$HOMECOG_DATA`` or ``--db`` elsewhere sees that the robot starts from nothing there.
 """
 
 from __future__ import annotations
 
+import logging
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -14,6 +18,7 @@ from pathlib import Path
 
 from homecog.errors import QTableError
 from homecog.home.model import Home
+from homecog.knowledge.database import redact
 from homecog.knowledge.ihdr import IHDRTree
 from homecog.knowledge.sample_log import SampleLog
 from homecog.knowledge.samples import policy_samples
@@ -22,9 +27,10 @@ from homecog.learning.grouped import train_policy
 from homecog.learning.policy import Policy
 from homecog.learning.sarsa import SarsaConfig
 from homecog.learning.size import check_size
-from homecog.paths import q_table_path
+from homecog.paths import data_dir, q_table_path
 
 Progress = Callable[[str], None]
+notices = logging.getLogger("homecog.notice")
 
 
 def _say(progress: Progress | None, message: str) -> None:
@@ -41,14 +47,16 @@ def ensure_policy(
         return Policy.load(path, home)
     check_size(home, joint=joint)
     cached = q_table_path(home, joint=joint)
+    why = f"no Q table of {home.name} in {data_dir()} yet"
     if cached.exists():
         try:
             policy = Policy.load(cached, home)
             if policy.joint == joint:
                 return policy
-        except QTableError:
-            pass  # a damaged or outdated cache is made again
+        except QTableError as e:  # a damaged or outdated cache is made again
+            why = f"the cached Q table of {home.name} cannot be used ({e})"
     how = "as one joint table" if joint else "group by group"
+    notices.info("%s: training one %s, kept at %s", why, how, cached)
     _say(progress, f"training Sarsa on {home.name} {how} (no Q table cached yet) ...")
     policy = train_policy(home, SarsaConfig(), joint=joint).policy
     policy.save(cached)
@@ -103,6 +111,8 @@ def build(
 def open_tree(home: Home, store: Store, *, progress: Progress | None = None) -> IHDRTree:
     """The stored tree, built first if the database has none yet."""
     if not store.has_tree():
+        check_size(home)  # a home too large is refused before anything is said or made
+        notices.info("no knowledge tree of %s in %s yet: building it there", home.name, redact(store.url))
         _say(progress, "no knowledge tree in the database yet: building it ...")
         return build(home, store, progress=progress).tree
     return store.load_tree()

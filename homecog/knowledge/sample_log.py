@@ -4,8 +4,9 @@ A home of 48 or 1,000 devices has millions of samples; storing each one's codes 
 would make the log gigabytes. What the policy decided is stored — per sample the step at
 which each service is performed (int8) and what matters to it (an index into the few distinct
 masks) — and what is a function of the home and the seed is made again when the tree is
-rebuilt: the codes, which are every start state of the group in order, and the readings, drawn
-from the build's seed exactly as the build drew them.
+rebuilt: the codes, which are every start state of the group in order (over the group's
+classes of contexts since format 3, over every context before), and the readings, drawn from
+the build's seed exactly as the build drew them.
 
 Rows hold at most :data:`ROWS_PER_PART` samples, so no database row grows past a few
 megabytes; a rebuild joins a group's parts before it learns them, in the build's order.
@@ -24,9 +25,9 @@ import numpy as np
 from homecog.home.codec import Space
 from homecog.home.groups import device_groups, project
 from homecog.home.model import Home
-from homecog.knowledge.samples import SampleSet, code_dtype, draw_readings, start_codes
+from homecog.knowledge.samples import SampleSet, code_dtype, draw_readings, placed, start_codes
 
-FORMAT = 2
+FORMAT = 3
 ROWS_PER_PART = 1 << 17
 
 
@@ -88,24 +89,25 @@ def regenerate(home: Home, rows: list[tuple[dict[str, Any], bytes]]) -> Iterator
         arrays = [unpack(blob) for _, blob in parts]
         positions = np.concatenate([a["positions"] for a in arrays])
         masks = np.concatenate([a["masks"][a["index"]] for a in arrays])
+        classes = meta.get("format") != 2  # format 2 logged every context of a group
         if meta["joint"]:
-            seen, rng, dims, services = home, np.random.default_rng(meta["seed"]), None, None
+            seen, rng = home, np.random.default_rng(meta["seed"])
         else:
-            group = groups[g]
-            seen, rng = project(home, group), np.random.default_rng([meta["seed"], group.index])
-            n_f = len(home.features)
-            dims = tuple(range(n_f)) + tuple(n_f + d for d in group.device_index)
-            services = group.service_index
+            seen = project(home, groups[g], classes=classes)
+            rng = np.random.default_rng([meta["seed"], groups[g].index])
         space = Space(seen)
         codes = start_codes(seen)
         if len(codes) != meta["total"] or len(positions) != meta["total"]:
             raise ValueError(f"logged samples of group {g} do not fit the home")
-        yield SampleSet(
+        samples = SampleSet(
             space=space,
             codes=codes.astype(code_dtype(space)),
             readings=draw_readings(space, codes, rng),
             positions=positions,
             masks=masks,
-            dims=dims,
-            services=services,
         )
+        if not meta["joint"]:
+            placed(samples, home, groups[g], meta["seed"])
+            if not classes:
+                samples.classes = samples.origin = None
+        yield samples

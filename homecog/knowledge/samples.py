@@ -51,11 +51,13 @@ import numba
 import numpy as np
 
 from homecog.environment.core import Core
-from homecog.environment.kernels import apply, argmax_row, distance
+from homecog.environment.kernels import apply, argmax_allowed, distance
 from homecog.environment.tables import Tables
+from homecog.home.classes import Classes, group_classes
 from homecog.home.codec import Point, Space, finite_span
-from homecog.home.groups import project
+from homecog.home.groups import Group, project
 from homecog.home.model import Home
+from homecog.knowledge.relevance import relevance, sufficient_masks
 from homecog.learning.policy import Policy
 
 _jit = numba.njit(cache=True, nogil=True)
@@ -86,6 +88,9 @@ class SampleSet:
     The samples of one group of a home (SPEC §4.1) are those of the group's projection: its
     space is the context features and the group's devices, and ``dims`` and ``services`` give
     the position of each of its dimensions and services in the whole home (None: the same).
+    Its contexts are the group's classes (``classes``, :mod:`homecog.home.classes`): a row
+    stands for every context of its class, a feature's code is the class; ``origin`` (the home,
+    the group and the seed) makes the rows of the home's own start states (:meth:`expand`).
     """
 
     space: Space
@@ -95,9 +100,51 @@ class SampleSet:
     masks: np.ndarray
     dims: tuple[int, ...] | None = None
     services: tuple[int, ...] | None = None
+    classes: Classes | None = None
+    origin: tuple[Home, Group, int] | None = None
 
     def __len__(self) -> int:
         return len(self.codes)
+
+    def weights(self) -> np.ndarray:
+        """Per row, how many of the home's start states it stands for (1 without classes)."""
+        if self.classes is None:
+            return np.ones(len(self), dtype=np.int64)
+        return np.repeat(self.classes.weights(), 1 << (len(self.space.dims) - self.space.n_features))
+
+    def rows(self, codes: np.ndarray, h: np.ndarray) -> np.ndarray:
+        """The row of each start state given by the home's feature codes (one row each) and the
+        sample set's device bits (device ``k`` of its space is bit ``k``)."""
+        n_f = self.space.n_features
+        if self.classes is not None:
+            ctx = self.classes.indices(np.asarray(codes)[:, :n_f])
+        else:
+            radix = [len(d.values) for d in self.space.dims[:n_f]]
+            ctx = np.ravel_multi_index(tuple(np.asarray(codes)[:, :n_f].T), radix)
+        return (ctx.astype(np.int64) << (len(self.space.dims) - n_f)) + np.asarray(h, dtype=np.int64)
+
+    def expand(self) -> SampleSet:
+        """The same samples with a row per start state of the home's own contexts, readings drawn
+        inside their bins as a build without classes draws them (for learners that read the
+        readings: the paper's clusters, the baselines)."""
+        if self.classes is None or self.origin is None:
+            return self
+        home, group, seed = self.origin
+        full = project(home, group, classes=False)
+        space = Space(full)
+        codes = start_codes(full)
+        n_f = space.n_features
+        h = (codes[:, n_f:].astype(np.int64) << np.arange(len(space.dims) - n_f)).sum(axis=1)
+        rows = self.rows(codes, h)
+        return SampleSet(
+            space=space,
+            codes=codes.astype(code_dtype(space)),
+            readings=draw_readings(space, codes, np.random.default_rng([seed, group.index])),
+            positions=self.positions[rows],
+            masks=self.masks[rows],
+            dims=self.dims,
+            services=self.services,
+        )
 
     def __getitem__(self, i: int) -> Sample:
         row = self.positions[i]
@@ -132,7 +179,22 @@ class SampleSet:
 @_jit
 def greedy_positions(t: Tables, q: np.ndarray, limit: int) -> np.ndarray:
     """For every start state, the step at which the greedy roll-out performs each service."""
-    (n_devices, need_count, offsets, care, want, need_pos, set_mask, set_val, _, _, _, _, _, _) = t
+    (
+        n_devices,
+        need_count,
+        offsets,
+        care,
+        want,
+        need_pos,
+        set_mask,
+        set_val,
+        p_ctx,
+        r_start,
+        r_ctx,
+        r_mask,
+        r_val,
+        _,
+    ) = t
     n_contexts = len(need_count)
     n_h = 1 << n_devices
     out = np.full((n_contexts, n_h, q.shape[1]), -1, dtype=np.int8)
@@ -142,37 +204,12 @@ def greedy_positions(t: Tables, q: np.ndarray, limit: int) -> np.ndarray:
             h, n = h0, (1 << k) - 1
             step = 0
             while distance(care[c], want[c], h, n) > 0 and step < limit:
-                a = argmax_row(q, offsets[c] + (h << k) + n)
+                a = argmax_allowed(q, offsets[c] + (h << k) + n, p_ctx, r_start, r_ctx, r_mask, r_val, c, h)
                 if out[c, h0, a] < 0:
                     out[c, h0, a] = step
                 h, n = apply(set_mask, set_val, need_pos, c, h, n, a)
                 step += 1
     return out
-
-
-def _axes(space: Space) -> list[int]:
-    """Axis of each dimension in the performed table reshaped to one axis per dimension."""
-    n_f, n_d = space.n_features, len(space.dims) - space.n_features
-    # contexts are mixed-radix with the first feature most significant; device d is bit d of h,
-    # so in C order the last device comes first among the device axes.
-    return list(range(n_f)) + [n_f + (n_d - 1 - d) for d in range(n_d)]
-
-
-def relevance(space: Space, performed: np.ndarray) -> np.ndarray:
-    """Per (c, h, a), the bit mask of dimensions whose change alone flips ``performed``."""
-    n_c, n_h, n_a = performed.shape
-    shape = [dim_size(d) for d in space.dims[: space.n_features]]
-    shape += [2] * (len(space.dims) - space.n_features) + [n_a]
-    table = performed.reshape(shape)
-    mask = np.zeros(table.shape, dtype=np.int64)
-    for bit, axis in enumerate(_axes(space)):
-        varies = table.any(axis=axis, keepdims=True) & ~table.all(axis=axis, keepdims=True)
-        mask |= np.where(varies, np.int64(1) << bit, 0)
-    return mask.reshape(n_c, n_h, n_a)
-
-
-def dim_size(dim: object) -> int:
-    return len(dim.values)  # type: ignore[attr-defined]
 
 
 def start_codes(home: Home) -> np.ndarray:
@@ -183,69 +220,6 @@ def start_codes(home: Home) -> np.ndarray:
     n_h = 1 << n_devices
     dev = (np.arange(n_h)[:, None] >> np.arange(n_devices)[None, :]) & 1
     return np.concatenate([np.repeat(ctx, n_h, axis=0), np.tile(dev, (n_contexts, 1))], axis=1)
-
-
-def sufficient_masks(
-    space: Space, performed: np.ndarray, sensitive: np.ndarray, codes: np.ndarray
-) -> np.ndarray:
-    """Grow each positive's sensitive set until its box holds only positives (see module doc)."""
-    n_c, n_h, n_a = performed.shape
-    n_dims = len(space.dims)
-    axes = _axes(space)
-    shape = [dim_size(d) for d in space.dims[: space.n_features]] + [2] * (n_dims - space.n_features)
-    out = np.zeros((n_c * n_h, n_a), dtype=np.int64)
-    strides = np.array([int(np.prod(shape[i + 1 :])) for i in range(n_dims)], dtype=np.int64)
-    flat = codes.astype(np.int64) @ strides[axes]  # each point's index in the reshaped table
-    for a in range(n_a):
-        table = np.ascontiguousarray(performed[:, :, a]).reshape(shape)
-        pos = np.flatnonzero(performed[:, :, a].reshape(-1))
-        if pos.size == 0:
-            continue
-        masks = sensitive[:, :, a].reshape(-1)[pos]
-        # dimensions most often sensitive for this service are added first
-        freq = [int(((masks >> j) & 1).sum()) for j in range(n_dims)]
-        order = sorted(range(n_dims), key=lambda j: -freq[j])
-        # Points are grouped by mask; a point's box is all-positive when the table reduced
-        # with `all` over the other dimensions is true at the point, so each mask is one
-        # vectorized test however many boxes it has.
-        pending: dict[int, list[np.ndarray]] = {}
-        for mask in np.unique(masks):
-            pending[int(mask)] = [pos[masks == mask]]
-        while pending:
-            mask = min(pending)  # any order gives the same result; this one is reproducible
-            members = np.concatenate(pending.pop(mask))
-            ok = _box_all(table, axes, mask, codes, members, flat[members])
-            out[members[ok], a] = mask
-            if not ok.all():
-                extra = next(j for j in order if not mask >> j & 1)
-                pending.setdefault(mask | (1 << extra), []).append(members[~ok])
-    return out
-
-
-def _box_all(
-    table: np.ndarray, axes: list[int], mask: int, codes: np.ndarray, members: np.ndarray, flat: np.ndarray
-) -> np.ndarray:
-    """Whether each member's box (its codes on ``mask``, anything elsewhere) is all true.
-
-    Small boxes are read point by point; large ones from ``table`` reduced over the free axes
-    once for all members — whichever touches fewer cells.
-    """
-    n_dims = len(axes)
-    free = sorted(axes[j] for j in range(n_dims) if not mask >> j & 1)
-    box = int(np.prod([table.shape[i] for i in free])) if free else 1
-    if box * len(members) <= table.size:
-        strides = np.array([int(np.prod(table.shape[i + 1 :])) for i in range(n_dims)], dtype=np.int64)
-        offsets = np.zeros(1, dtype=np.int64)
-        for i in free:  # every combination of the free axes, as flat offsets
-            offsets = (offsets[:, None] + np.arange(table.shape[i]) * strides[i]).reshape(-1)
-        fixed = [j for j in range(n_dims) if not mask >> j & 1]
-        base = flat - (codes[members][:, fixed].astype(np.int64) @ strides[[axes[j] for j in fixed]])
-        return table.reshape(-1)[base[:, None] + offsets[None, :]].all(axis=1)
-    holds = table.all(axis=tuple(free)) if free else table
-    kept = sorted((j for j in range(n_dims) if mask >> j & 1), key=lambda j: axes[j])
-    if not kept:
-        return np.full(len(members), bool(holds))
-    return holds[tuple(codes[members, j] for j in kept)]
 
 
 def draw_readings(space: Space, codes: np.ndarray, rng: np.random.Generator) -> np.ndarray:
@@ -273,9 +247,11 @@ def make_samples(
     seed: int = 0,
     limit: int | None = None,
     rng: np.random.Generator | None = None,
+    weights: np.ndarray | None = None,
 ) -> SampleSet:
     """Samples of every start state of a home from a Q table (deterministic given ``seed``, or
-    the generator ``rng`` of the readings)."""
+    the generator ``rng`` of the readings); ``weights``: per context, how many of a home's
+    contexts it stands for (a group's classes)."""
     space = Space(core.home)
     limit = limit or 2 * (core.n_devices + int(core.tables.need_count.max())) + 2
     positions = greedy_positions(core.tables, q, limit)
@@ -284,7 +260,8 @@ def make_samples(
     performed = np.concatenate([performed, ~performed.any(axis=2, keepdims=True)], axis=2)
     sensitive = relevance(space, performed)
     codes = start_codes(core.home)
-    masks = sufficient_masks(space, performed, sensitive, codes)
+    per_row = None if weights is None else np.repeat(weights, 1 << core.n_devices)
+    masks = sufficient_masks(space, performed, sensitive, codes, per_row)
     readings = draw_readings(space, codes, rng if rng is not None else np.random.default_rng(seed))
     return SampleSet(
         space=space,
@@ -307,12 +284,23 @@ def group_samples(home: Home, policy: Policy, i: int, *, seed: int = 0) -> Sampl
     group = policy.groups[i]
     if policy.joint:
         return make_samples(Core(home), policy.q(i), seed=seed)
+    classes = group_classes(home, group)
     samples = make_samples(
-        Core(project(home, group)), policy.q(i), rng=np.random.default_rng([seed, group.index])
+        Core(project(home, group)),
+        policy.q(i),
+        rng=np.random.default_rng([seed, group.index]),
+        weights=classes.weights(),
     )
+    return placed(samples, home, group, seed)
+
+
+def placed(samples: SampleSet, home: Home, group: Group, seed: int) -> SampleSet:
+    """A group's samples told where they lie in the home: its dimensions, services, classes."""
     n_f = len(home.features)
     samples.dims = tuple(range(n_f)) + tuple(n_f + d for d in group.device_index)
     samples.services = group.service_index
+    samples.classes = group_classes(home, group)
+    samples.origin = (home, group, seed)
     return samples
 
 

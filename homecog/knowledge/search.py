@@ -21,6 +21,7 @@ import numpy as np
 from homecog.home.clock import format_clock
 from homecog.home.codec import Point, bin_reading
 from homecog.home.model import format_number
+from homecog.home.scenes import composition, scene_services
 from homecog.knowledge.group_index import LIMIT_BYTES as GROUP_INDEX_BYTES
 from homecog.knowledge.group_index import GroupIndex
 from homecog.knowledge.model import Cluster, Cognition, Condition, Explanation, Node, Numeric
@@ -245,12 +246,34 @@ class TreeSearch:
     def _priority(self, node: Node, cluster: Cluster) -> float:
         return cluster.priority if self.mode == "multi" and cluster.count else node.priority
 
+    def _with_scenes(
+        self, hits: list[tuple[Node, Cluster]], p: Point
+    ) -> tuple[list[tuple[Node, Cluster]], dict[int, list[str]]]:
+        """The answer with scenes in the place of the services they do the work of
+        (:func:`homecog.home.scenes.composition`), and per scene those services."""
+        if len(hits) < 2 or not scene_services(self.home):
+            return hits, {}
+        n_f = self._space.n_features
+        plan = [node.service for node, _ in hits]
+        done, work = composition(self.home, p.codes[:n_f], [bool(c) for c in p.codes[n_f:]], plan)
+        if not work:
+            return hits, {}
+        by_service = dict(zip(plan, hits, strict=True))
+        out = [by_service.get(a) or (self._services[a], Cluster(id=-1, conditions={})) for a in done]
+        names = self.home.service_names
+        return out, {x: [names[a] for a in replaced] for x, replaced in work.items()}
+
     def explain_one(self, x: Mapping[str, object] | Point, user: str | None = None) -> Cognition:
-        """Services for a context, ordered by priority, with why (Algorithm 3)."""
-        hits, idle = self._search(self.point(x), user)
+        """Services for a context, ordered by priority, with why (Algorithm 3); a scene says
+        which services it does the work of."""
+        p = self.point(x)
+        hits, idle = self._search(p, user)
+        hits, replaced = self._with_scenes(hits, p)
         explanations = []
         for node, cluster in hits:
-            if cluster.evidence is not None:
+            if node.service in replaced:
+                conditions, evidence = {"instead of": ", ".join(replaced[node.service])}, None
+            elif cluster.evidence is not None:
                 conditions, evidence = self._layers.explain(cluster.user, node.service, cluster.evidence)
             else:
                 conditions, evidence = self.describe(cluster), None
@@ -273,7 +296,8 @@ class TreeSearch:
 
     def predict_one(self, x: Mapping[str, object] | Point, user: str | None = None) -> list[str]:
         """The services the user needs in context ``x``, in priority order."""
-        return [node.name for node, _ in self._search(self.point(x), user)[0]]
+        p = self.point(x)
+        return [node.name for node, _ in self._with_scenes(self._search(p, user)[0], p)[0]]
 
     def describe(self, cluster: Cluster) -> dict[str, str]:
         """A cluster's conditions as text, per related dimension.

@@ -48,7 +48,10 @@ class ClusterUpdates:
         n: int,
         pos_sum: float,
         stats: dict[int, tuple[float, float, float]] | None,
+        sets: dict[int, frozenset[int]] | None = None,
     ) -> None:
+        """Learn a sample row: ``codes`` on the dimensions of ``mask``, or on a dimension of
+        ``sets`` (a class of contexts, multi mode) every value of its set."""
         node = self._all_services()[a]
         self._shared_version += 1  # what users' layers take as prior may change
         for target in (node, node.parent):
@@ -59,7 +62,7 @@ class ClusterUpdates:
             for target in (node, node.parent):
                 self._algorithm2(target, mask, codes, readings, n, stats)  # type: ignore[arg-type]
         else:
-            self._merge_box(node, mask, codes, readings, n, pos_sum)
+            self._merge_box(node, mask, codes, n, pos_sum, sets or {})
 
     def _algorithm2(
         self,
@@ -117,20 +120,23 @@ class ClusterUpdates:
         node: Node,
         mask: int,
         codes: tuple[int, ...],
-        readings: tuple[float | None, ...],
         n: int,
         pos_sum: float,
+        sets: dict[int, frozenset[int]],
     ) -> None:
         """Multi mode: join a covering box, merge with a box one dimension away, or start one."""
         index = self._index[node.id]
         dims = bits(mask)
-        key = tuple(codes[j] for j in dims)
-        hit = index.covering(mask, key)
+        values = [sets.get(j) or frozenset([codes[j]]) for j in dims]
+        if sets:
+            hit = index.covering_box(mask, values)
+        else:
+            hit = index.covering(mask, tuple(codes[j] for j in dims))
         if hit is not None:
             hit.count += n
             hit.position_sum += pos_sum
             return
-        box = self._new_cluster({j: frozenset([codes[j]]) for j in dims}, count=n, position_sum=pos_sum)
+        box = self._new_cluster(dict(zip(dims, values, strict=True)), count=n, position_sum=pos_sum)
         index.point_to(box, box.conditions, mask)
         while True:
             keys = index.partner_keys(box, mask)

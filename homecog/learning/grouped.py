@@ -2,19 +2,27 @@
 
 Each group is learned by the very kernel of :mod:`homecog.learning.sarsa` — the paper's
 policy, Eq. 1 on the group's own distance — on its projection (context, the group's
-devices, its pending needs). Episodes start in every start state of the group once per
-*sweep*, in a fresh random order each time (exploring starts), so no start state waits on
-chance; sweeps go on until the greedy choice of every state stayed the same over a whole
-sweep (at least :data:`MIN_SWEEPS`, at most :data:`MAX_SWEEPS`), or for a fixed number of
+devices, its pending needs). Episodes start in every start state of the group with every one
+of its services once per *sweep*, in a fresh random order each time (exploring starts), so no
+start state waits on chance and no service's value there is left as it was first learned (the
+paper's policy takes the best once every service was tried, and a service tried before the
+values after it were known could never win again); sweeps go on until the greedy choice of
+every state stayed the same over a whole sweep and every state an episode has been in has had
+every service tried (at least :data:`MIN_SWEEPS`, at most :data:`MAX_SWEEPS`), or for a fixed
+number of
 episodes when one is given. Groups are independent, so they are learned in parallel threads
 (the kernels release the GIL), each from its own seed: the result does not depend on the
 number of threads.
 
+A group learns over the classes of contexts it can tell apart (:mod:`homecog.home.classes`),
+so its table does not grow with context values that none of its rules names.
+
 The greedy roll-out of the home performs, at each step, the best service over the groups not
-yet at their optimum. Since no service of a group touches another group, the home's roll-out
-from (c, h) is optimal exactly when every group's roll-out from (c, h_g) is, so the home's
-greedy-optimal rate is, exactly, the mean over contexts of the product of the groups' rates
-in that context — without enumerating the joint space.
+yet at their optimum, and composes the scenes. Since no service of a group touches another
+group, the home's roll-out from (c, h) is optimal exactly when every group's roll-out from
+(c, h_g) is, so the home's greedy-optimal rate is, exactly, the mean over contexts of the
+product of the groups' rates in that context (each read at the context's class) — without
+enumerating the joint space.
 
 >>> from homecog.home import load_home
 >>> result = train_policy(load_home("paper"), SarsaConfig(seed=0))
@@ -34,6 +42,7 @@ import numpy as np
 
 from homecog.environment.core import Core
 from homecog.environment.reachability import greedy_outcomes, optimal_start_states
+from homecog.home.classes import group_classes, home_classes, representatives
 from homecog.home.groups import Group, device_groups, project
 from homecog.home.model import Home
 from homecog.learning.policy import Policy, round_q
@@ -71,10 +80,12 @@ def _learn_group(
     if group.services:
         previous: np.ndarray | None = None
         sweep = 0
+        n_services = len(group.services)
         while True:
-            starts = order.permutation(n_starts).astype(np.int64)
+            pairs = order.permutation(n_starts * n_services).astype(np.int64)
             if episodes is not None:
-                starts = starts[: episodes - table.episodes]
+                pairs = pairs[: episodes - table.episodes]
+            starts, firsts = pairs // n_services, pairs % n_services
             steps += int(
                 run_episodes(
                     core.tables,
@@ -89,6 +100,7 @@ def _learn_group(
                     config.max_steps,
                     rng,
                     starts,
+                    firsts,
                 )
             )
             table.episodes += len(starts)
@@ -98,9 +110,8 @@ def _learn_group(
                     break
                 continue
             greedy = table.q.argmax(axis=1)
-            if (sweep >= MIN_SWEEPS and previous is not None and (greedy == previous).all()) or (
-                sweep >= MAX_SWEEPS
-            ):
+            stable = previous is not None and (greedy == previous).all() and _all_tried(table)
+            if (sweep >= MIN_SWEEPS and stable) or sweep >= MAX_SWEEPS:
                 break
             previous = greedy
     report(n_starts)
@@ -113,11 +124,25 @@ def _learn_group(
     return _Learned(table=table, rates=ok.mean(axis=1), steps=steps)
 
 
+def _all_tried(table: QTable) -> bool:
+    """Whether every service has been tried in every state an episode has been in: until then a
+    greedy choice can rest on a value never compared with an untried service's."""
+    n = table.q.shape[1]
+    full = np.array([(1 << min(32, n - 32 * w)) - 1 for w in range(table.tried.shape[1])], dtype=np.int64)
+    visited = (table.tried != 0).any(axis=1)
+    return bool((table.tried[visited] == full).all())
+
+
+def _starts(home: Home, group: Group) -> int:
+    """A group's start states: its classes of contexts × 2^devices."""
+    return group_classes(home, group).count << len(group.devices)
+
+
 def _budgets(home: Home, groups: tuple[Group, ...], episodes: int | None) -> list[int | None]:
     """Episodes per group: automatic (None), or a fixed total split by start states."""
     if episodes is None:
         return [None] * len(groups)
-    weights = [home.context_count << len(g.devices) if g.services else 0 for g in groups]
+    weights = [_starts(home, g) if g.services else 0 for g in groups]
     total = sum(weights) or 1
     shares = [episodes * w // total for w in weights]
     # the rest, one each, to the groups that lost the largest fractions: exactly `episodes` in all
@@ -156,7 +181,7 @@ def train_policy(
 
     groups = device_groups(home)
     budgets = _budgets(home, groups, episodes)
-    total = sum(home.context_count << len(g.devices) for g in groups)
+    total = sum(_starts(home, g) for g in groups)
     done = 0
 
     def report(n: int) -> None:
@@ -172,11 +197,15 @@ def train_policy(
                 lambda gb: _learn_group(home, gb[0], config, gb[1], report), zip(groups, budgets, strict=True)
             )
         )
-    rates = np.ones(home.context_count)
-    for item in learned:
-        rates *= item.rates
+    # the mean over the home's contexts, summed over the classes no rule tells apart
+    every = home_classes(home)
+    codes = representatives(every)
+    rates = np.ones(len(codes))
+    for group, item in zip(groups, learned, strict=True):
+        rates *= item.rates[group_classes(home, group).indices(codes)]
+    weights = every.weights()
     seconds = time.perf_counter() - start
-    rate = float(rates.mean())
+    rate = float((rates * weights).sum() / weights.sum())
     policy = Policy(
         home_name=home.name,
         home_hash=home.content_hash,

@@ -26,9 +26,10 @@ from homecog.errors import QTableError
 from homecog.home.groups import Group, device_groups, whole
 from homecog.home.model import Home
 from homecog.learning.qtable import QTable, check_made_for
+from homecog.learning.size import exact_states
 from homecog.paths import atomic_write, reading
 
-FORMAT = 2
+FORMAT = 3  # 3: group tables over the groups' classes of contexts; 2 had every context
 
 
 def round_q(q: np.ndarray) -> np.ndarray:
@@ -130,6 +131,8 @@ class Policy:
             meta = json.loads(str(data["meta"]))
             if meta.get("format") == 1:
                 return cls.joint_from(home, QTable.load(path, home))
+            if meta.get("format") == 2:
+                raise QTableError(f"{path}: a Q table of an earlier homecog (format 2); train again")
             if meta.get("format") != FORMAT:
                 raise QTableError(f"{path}: not a homecog Q table (format {meta.get('format')!r})")
             policy = cls._from_meta(meta, home, path)
@@ -137,7 +140,8 @@ class Policy:
                 t.q = data[f"q{i}"]
                 if policy.joint:
                     t.tried = data[f"tried{i}"]
-                if t.q.ndim != 2 or t.q.shape[1] != len(g.services):
+                rows = exact_states(home, g, joint=policy.joint)
+                if t.q.ndim != 2 or t.q.shape != (rows, len(g.services)):
                     raise QTableError(f"{path}: not a homecog Q table (group {i} has the wrong shape)")
         return policy
 

@@ -2,7 +2,10 @@
 
 The roll-out of one table follows its best service until the optimum. The roll-out of a
 home learned group by group performs, at each step, the best service over all groups not yet
-at their optimum — the greatest Q value of each group's best service, the first group on ties.
+at their optimum — the greatest Q value of each group's best service not prohibited there, the
+first group on ties —
+and a scene takes the place of the services it does the work of
+(:func:`homecog.home.scenes.compose`).
 
 >>> from homecog.home import load_home
 >>> from homecog.learning.grouped import train_policy
@@ -24,10 +27,12 @@ from collections.abc import Sequence
 import numpy as np
 
 from homecog.environment.core import Core
-from homecog.environment.kernels import argmax_row
+from homecog.environment.kernels import best_allowed
+from homecog.home.classes import group_classes
 from homecog.home.encoding import context_index
 from homecog.home.groups import project
 from homecog.home.model import Home
+from homecog.home.scenes import compose
 from homecog.learning.policy import Policy
 
 
@@ -38,7 +43,7 @@ def greedy_services(
     n = core.full_needs(c) if n is None else n
     out: list[int] = []
     while core.distance(c, h, n) > 0 and len(out) < limit:
-        a = int(argmax_row(q, core.index(c, h, n)))
+        a = int(best_allowed(core.tables, q, c, h, n))
         out.append(a)
         h, n, *_ = core.step(c, h, n, a)
     return out
@@ -52,36 +57,38 @@ class Rollout:
         self.home = home
         self.policy = policy
         self.cores = [Core(home) if policy.joint else Core(project(home, g)) for g in policy.groups]
+        self.classes = [None if policy.joint else group_classes(home, g) for g in policy.groups]
         self.q = [policy.q(i) for i in range(len(policy.groups))]
 
     def run(
         self, codes: Sequence[int], states: Sequence[bool], limit: int | None = None
     ) -> tuple[list[int], bool]:
         """The services performed from a start state (all needs pending), in order, as positions in
-        the home, and whether the roll-out was optimal: every step lowered the distance, none was
-        prohibited, and the optimum was reached."""
-        c = context_index(self.home, codes)
+        the home, and whether every group's roll-out was optimal: every step was progress, none
+        was prohibited, and the optimum was reached."""
+        full = context_index(self.home, codes)
+        ctx = [full if cls is None else cls.index(codes) for cls in self.classes]
         groups = self.policy.groups
         h = [sum(1 << k for k, d in enumerate(g.device_index) if states[d]) for g in groups]
-        n = [core.full_needs(c) for core in self.cores]
+        n = [core.full_needs(ctx[i]) for i, core in enumerate(self.cores)]
         limit = limit or 2 * (len(self.home.devices) + len(self.home.services)) + 2
         out: list[int] = []
         optimal = True
         while len(out) < limit:
             best, value = -1, 0.0
             for i, core in enumerate(self.cores):
-                if not groups[i].services or core.distance(c, h[i], n[i]) == 0:
+                if not groups[i].services or core.distance(ctx[i], h[i], n[i]) == 0:
                     continue
-                s = core.index(c, h[i], n[i])
-                a = int(argmax_row(self.q[i], s))
+                s = core.index(ctx[i], h[i], n[i])
+                a = int(best_allowed(core.tables, self.q[i], ctx[i], h[i], n[i]))
                 if best < 0 or self.q[i][s, a] > value:
                     best, value, local = i, float(self.q[i][s, a]), a
             if best < 0:
                 break
-            core = self.cores[best]
-            before = core.distance(c, h[best], n[best])
-            h[best], n[best], _, _, forbidden = core.step(c, h[best], n[best], local)
-            optimal &= not forbidden and core.distance(c, h[best], n[best]) < before
+            core, c = self.cores[best], ctx[best]
+            h2, n2, _, _, forbidden = core.step(c, h[best], n[best], local)
+            optimal &= not forbidden and core.progressed(c, h[best], n[best], h2, n2)
+            h[best], n[best] = h2, n2
             out.append(groups[best].service_index[local])
-        done = all(core.distance(c, h[i], n[i]) == 0 for i, core in enumerate(self.cores))
-        return out, optimal and done
+        done = all(core.distance(ctx[i], h[i], n[i]) == 0 for i, core in enumerate(self.cores))
+        return compose(self.home, codes, states, out), optimal and done

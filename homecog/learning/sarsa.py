@@ -31,7 +31,15 @@ import numba
 import numpy as np
 
 from homecog.environment.core import Core
-from homecog.environment.kernels import apply, argmax_row, distance, is_prohibited, popcount, reward
+from homecog.environment.kernels import (
+    apply,
+    argmax_allowed,
+    distance,
+    is_prohibited,
+    popcount,
+    progressed,
+    reward,
+)
 from homecog.environment.reachability import greedy_outcomes
 from homecog.environment.tables import Tables
 from homecog.home.model import Home
@@ -99,8 +107,9 @@ def _lowest_bit(x: int) -> int:
 
 
 @_inline
-def choose(q: np.ndarray, tried: np.ndarray, s: int, eps: float, rng: np.ndarray) -> int:
-    """The paper's policy: best when all are tried; else best w.p. ε, a random untried one.
+def choose(q: np.ndarray, tried: np.ndarray, s: int, eps: float, rng: np.ndarray, best: int) -> int:
+    """The paper's policy: the best (``best``, the caller's greedy choice) when all are tried;
+    else the best w.p. ε, a random untried one.
 
     ``tried[s, w]`` holds the tried marks of services ``32w .. 32w+31`` as bits.
     """
@@ -109,7 +118,7 @@ def choose(q: np.ndarray, tried: np.ndarray, s: int, eps: float, rng: np.ndarray
     for w in range(tried.shape[1]):
         untried += popcount(~tried[s, w] & word_mask(n_services, w))
     if untried == 0 or _uniform(rng) < eps:
-        return argmax_row(q, s)
+        return best
     pick = _next(rng) % untried
     for w in range(tried.shape[1]):
         bits = ~tried[s, w] & word_mask(n_services, w)
@@ -155,11 +164,14 @@ def run_episodes(
     max_steps: int,
     rng: np.ndarray,
     starts: np.ndarray,
+    firsts: np.ndarray,
 ) -> int:
     """Algorithm 1 for ``episodes`` episodes numbered from ``t0 + 1``; returns the steps taken.
 
     Episodes start in a uniformly random context and device state, or, when ``starts`` is not
-    empty, in ``starts[e]`` (``c · 2^devices + h``): a sweep over every start state.
+    empty, in ``starts[e]`` (``c · 2^devices + h``): a sweep over every start state; where
+    ``firsts`` is not empty, episode ``e`` begins with service ``firsts[e]``, the policy choosing
+    from the second step on (exploring starts over states and services).
     """
     (
         n_devices,
@@ -196,19 +208,25 @@ def run_episodes(
         if d == 0:
             continue
         s = offsets[c] + (h << k) + n
-        a = choose(q, tried, s, eps, rng)
+        if firsts.size:
+            a = firsts[e]
+        else:
+            best = argmax_allowed(q, s, prohibited_ctx, rule_start, rule_ctx, rule_mask, rule_val, c, h)
+            a = choose(q, tried, s, eps, rng, best)
         for _ in range(max_steps):
             h2, n2 = apply(set_mask, set_val, need_pos, c, h, n, a)
             d2 = distance(care_c, want_c, h2, n2)
             forbidden = is_prohibited(prohibited_ctx, rule_start, rule_ctx, rule_mask, rule_val, c, h, a)
-            r = reward(w_terminal, w_progress, w_prohibited, m, d, d2, forbidden)
+            good = progressed(care_c, want_c, h, h2, d, d2)
+            r = reward(w_terminal, w_progress, w_prohibited, m, good, d, d2, forbidden)
             tried[s, a >> 5] |= 1 << (a & 31)
             steps += 1
             if d2 == 0:
                 sarsa_update(q, s, a, r, 0.0, alpha)
                 break
             s2 = offsets[c] + (h2 << k) + n2
-            a2 = choose(q, tried, s2, eps, rng)
+            best = argmax_allowed(q, s2, prohibited_ctx, rule_start, rule_ctx, rule_mask, rule_val, c, h2)
+            a2 = choose(q, tried, s2, eps, rng, best)
             sarsa_update(q, s, a, r, gamma * q[s2, a2], alpha)
             s, h, n, a, d = s2, h2, n2, a2, d2
     return steps
@@ -245,6 +263,19 @@ class TrainResult(RunFigures):
     q_table: QTable = field(kw_only=True)
 
 
+def leave_out_scenes(table: QTable, home: Home) -> None:
+    """Scenes are never chosen by a table (the roll-out composes them, :mod:`homecog.home.scenes`):
+    their columns are −inf and marked tried, so neither the greedy choice nor exploration takes
+    them, and Sarsa never updates them."""
+    from homecog.home.scenes import scene_services
+
+    if table.q.shape[0] == 0:
+        return
+    for a in scene_services(home):
+        table.q[:, a] = -np.inf
+        table.tried[:, a >> 5] |= 1 << (a & 31)
+
+
 def greedy_optimal_rate(core: Core, q: np.ndarray) -> float:
     """Share of start states whose greedy roll-out is optimal (exact, over all of them)."""
     return float(greedy_outcomes(core.tables, q).mean())
@@ -267,6 +298,7 @@ def train(
     core = core or Core(home)
     if q_table is None:
         q_table = QTable.empty(core, config=asdict(config))
+        leave_out_scenes(q_table, core.home)
     else:
         q_table.check_home(home)
     rng = seed_rng(config.seed) if q_table.episodes == 0 else q_table.rng.copy()
@@ -287,6 +319,7 @@ def train(
                 config.epsilon_min,
                 config.max_steps,
                 rng,
+                NO_STARTS,
                 NO_STARTS,
             )
         )

@@ -3,14 +3,15 @@ refused at once, with one line naming its largest group and the sizes, instead o
 minutes and then failing.
 
 The estimate counts what learning a group holds at once — its Q values (float32), tried
-marks, rule tables over every context — for as many groups as are learned in parallel, plus
-every group's finished table (float16). It is computed from the home's sizes alone, without
-evaluating a rule, so it takes microseconds whatever the home.
+marks, rule tables over its classes of contexts (:mod:`homecog.home.classes`) — for as many
+groups as are learned in parallel, plus every group's finished table (float16). It is computed
+from the home's sizes and the values its rules name, without evaluating a rule over any
+context, so it takes milliseconds whatever the home.
 
 >>> from homecog.home import load_home
 >>> report = estimate(load_home("paper"))
->>> report.largest.devices, report.largest_states
-(('window', 'ac_living', 'ac_bedroom'), 20736)
+>>> report.largest.devices, report.largest_states, report.contexts    # 24 of 2,592 contexts
+(('window', 'ac_living', 'ac_bedroom'), 192, 24)
 """
 
 from __future__ import annotations
@@ -21,8 +22,10 @@ import re
 from dataclasses import dataclass
 
 from homecog.errors import HomeTooLargeError
+from homecog.home.classes import group_classes, home_classes
 from homecog.home.groups import Group, device_groups, whole
 from homecog.home.model import Home
+from homecog.home.scenes import scene_services
 
 #: Largest Q table (states × services) one group may have: as the joint table's limit.
 MAX_GROUP_ENTRIES = 2**31
@@ -46,30 +49,38 @@ def _needs_count(home: Home, group: Group) -> int:
     return sum(1 for a in group.service_index if home.needs[a])
 
 
-def group_states(home: Home, group: Group) -> int:
+def contexts(home: Home, group: Group, *, joint: bool = False) -> int:
+    """The contexts a group learns over: its classes (:mod:`homecog.home.classes`), or every
+    context of the home for the joint table."""
+    return home.context_count if joint else group_classes(home, group).count
+
+
+def group_states(home: Home, group: Group, *, joint: bool = False) -> int:
     """An upper bound on a group's states: contexts × 2^devices × 2^(services that can be needed)."""
-    return home.context_count << (len(group.devices) + _needs_count(home, group))
+    return contexts(home, group, joint=joint) << (len(group.devices) + _needs_count(home, group))
 
 
-def exact_states(home: Home, group: Group) -> int:
-    """A group's states: every context × 2^devices × 2^(services that context needs)."""
+def exact_states(home: Home, group: Group, *, joint: bool = False) -> int:
+    """A group's states: every context (class) × 2^devices × 2^(services that context needs)."""
     need = [a for a in group.service_index if home.needs[a]]
-    base = home.context_count << len(group.devices)
+    base = contexts(home, group, joint=joint) << len(group.devices)
     if not need:
         return base
     import numpy as np
 
     from homecog.environment.tables import condition_contexts
 
-    radix = [f.radix for f in home.features]
-    codes = np.stack(np.unravel_index(np.arange(home.context_count), radix), axis=1)
-    count = np.zeros(home.context_count, dtype=np.int64)
+    # the joint table has a row per context: summed over the classes no rule tells apart
+    cls = home_classes(home) if joint else group_classes(home, group)
+    codes = np.stack(np.unravel_index(np.arange(cls.count), cls.radices), axis=1)
+    count = np.zeros(cls.count, dtype=np.int64)
     for a in need:
-        needed = np.zeros(home.context_count, dtype=bool)
+        needed = np.zeros(cls.count, dtype=bool)
         for cond in home.needs[a]:
-            needed |= condition_contexts(codes, cond)
+            needed |= condition_contexts(codes, cls.condition(cond))
         count += needed
-    return int((np.int64(1) << count).sum()) << len(group.devices)
+    weights = cls.weights() if joint else 1
+    return int(((np.int64(1) << count) * weights).sum()) << len(group.devices)
 
 
 def sizes(home: Home) -> dict[str, object]:
@@ -79,8 +90,9 @@ def sizes(home: Home) -> dict[str, object]:
     largest = max(range(len(groups)), key=lambda i: (states[i] * len(groups[i].services), -i))
     return {
         "start_states": home.context_count << len(home.devices),
-        "states": exact_states(home, whole(home)),
+        "states": exact_states(home, whole(home), joint=True),
         "groups": len(groups),
+        "scenes": len(scene_services(home)),
         "largest_group": groups[largest].label,
         "largest_group_states": states[largest],
         "group_states": sum(states),
@@ -88,24 +100,24 @@ def sizes(home: Home) -> dict[str, object]:
     }
 
 
-def _working_bytes(home: Home, group: Group, states: int) -> int:
+def _working_bytes(home: Home, group: Group, states: int, joint: bool) -> int:
     services = len(group.services)
     words = (services + 31) // 32
     rules = sum(len(home.prohibited[a]) for a in group.service_index)
-    tables = home.context_count * (9 * services + 40 + rules)
-    return states * (4 * services + 8 * words) + tables + (home.context_count << len(group.devices))
+    n = contexts(home, group, joint=joint)
+    return states * (4 * services + 8 * words) + n * (9 * services + 40 + rules) + (n << len(group.devices))
 
 
 def estimate(home: Home, *, joint: bool = False, workers: int | None = None) -> SizeReport:
     """What learning the home needs (see the module's docstring)."""
     groups = (whole(home),) if joint else device_groups(home)
-    sized = [(group_states(home, g), g) for g in groups]
+    sized = [(group_states(home, g, joint=joint), g) for g in groups]
     states, largest = max(sized, key=lambda x: (x[0] * max(1, len(x[1].services)), -x[1].index))
     workers = 1 if joint else max(1, min(len(groups), workers or os.cpu_count() or 1))
-    working = sorted((_working_bytes(home, g, s) for s, g in sized), reverse=True)[:workers]
+    working = sorted((_working_bytes(home, g, s, joint) for s, g in sized), reverse=True)[:workers]
     finished = sum(s * len(g.services) * (4 if joint else 2) for s, g in sized)
     return SizeReport(
-        contexts=home.context_count,
+        contexts=contexts(home, largest, joint=joint),
         largest=largest,
         largest_states=states,
         largest_entries=states * len(largest.services),
@@ -178,8 +190,9 @@ def check_size(home: Home, *, joint: bool = False) -> SizeReport:
     what = "the joint table" if joint else f"its largest group, {g.label},"
     needs = _needs_count(home, g)
     shape = (
-        f"{big_number(report.largest_states)} states ({big_number(report.contexts)} contexts × "
-        f"2^{len(g.devices)} device states"
+        f"{big_number(report.largest_states)} states ({big_number(report.contexts)} "
+        + ("class of contexts" if report.contexts == 1 else "classes of contexts")
+        + f" × 2^{len(g.devices)} device states"
         + (f" × 2^{needs} pending needs" if needs else "")
         + f") × {len(g.services)} services"
     )

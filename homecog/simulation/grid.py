@@ -26,10 +26,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from homecog.errors import PlanningError
+from homecog.home.floor import RESOLUTION, ROBOT_RADIUS, free_floor
 from homecog.home.layout import WALL_THICKNESS, Layout, Point2, Segment, point_segment_distance
 
-RESOLUTION = 0.05  # metres per cell
-ROBOT_RADIUS = 0.2  # metres
 _SQRT2 = math.sqrt(2.0)
 # 8-connected moves (row step, column step, cost in cells)
 _MOVES = [(-1, 0, 1.0), (1, 0, 1.0), (0, -1, 1.0), (0, 1, 1.0)] + [
@@ -178,23 +177,12 @@ def occupancy_grid(
     grid = _GRIDS.get(key)
     if grid is not None and grid.layout is layout:  # the grid keeps its layout alive, so ids stay unique
         return grid
-    w, h = layout.size
-    cols, rows = math.ceil(w / resolution), math.ceil(h / resolution)
-    xs = (np.arange(cols) + 0.5) * resolution
-    ys = (np.arange(rows) + 0.5) * resolution
-    px, py = np.meshgrid(xs, ys)  # shape (rows, cols)
-    walls = layout.solid_walls()
-    distance = np.full(px.shape, np.inf)
-    for x0, y0, x1, y1 in walls:
-        dx, dy = x1 - x0, y1 - y0
-        t = np.clip(((px - x0) * dx + (py - y0) * dy) / (dx * dx + dy * dy), 0.0, 1.0)
-        distance = np.minimum(distance, np.hypot(px - (x0 + t * dx), py - (y0 + t * dy)))
     grid = OccupancyGrid(
         layout=layout,
         resolution=resolution,
         radius=radius,
-        walls=walls,
-        occupied=distance < radius + WALL_THICKNESS / 2,
+        walls=layout.solid_walls(),
+        occupied=~free_floor(layout, resolution=resolution, radius=radius),
     )
     if len(_GRIDS) >= _CACHE_SIZE:
         del _GRIDS[next(iter(_GRIDS))]
