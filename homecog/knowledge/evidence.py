@@ -167,12 +167,12 @@ class ServiceLearner:
         self, readings: Sequence[float | None], codes: Sequence[int], shared: bool, recent: Recent = ()
     ) -> tuple[Atom, ...]:
         """An example's atoms: codes, numeric readings as intervals between cuts, the recent
-        past's atoms (``unknown`` where not given), the prior; a code below 0 is a missing
+        past's atoms (``unknown`` where not given), the prior; a code of −1 is a missing
         reading, ``unknown``."""
         out: list[Atom] = []
         for j in range(self.n_atoms - 1 - self.n_recent):
             cuts = self.cuts.get(j)
-            if codes[j] < 0:  # a missing reading
+            if codes[j] == -1:  # a missing reading
                 out.append("unknown")
             elif cuts is None:
                 out.append(codes[j])

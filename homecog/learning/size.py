@@ -191,7 +191,7 @@ def check_size(home: Home, *, joint: bool = False) -> SizeReport:
     needs = _needs_count(home, g)
     shape = (
         f"{big_number(report.largest_states)} states ({big_number(report.contexts)} "
-        + ("class of contexts" if report.contexts == 1 else "classes of contexts")
+        + ("contexts" if joint else "class of contexts" if report.contexts == 1 else "classes of contexts")
         + f" × 2^{len(g.devices)} device states"
         + (f" × 2^{needs} pending needs" if needs else "")
         + f") × {len(g.services)} services"
