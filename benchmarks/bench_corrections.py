@@ -1,4 +1,4 @@
-"""Benchmark of learning from people: households with wishes of their own (SPEC §7).
+"""Benchmark of learning from people: households with wishes of their own.
 
 For each home — the built-in ``paper``, the test homes ``studio`` and ``flat``, and a generated
 home of several rooms (benchmarks/homes.py) — households written at random from the home's

@@ -1,4 +1,4 @@
-"""A fleet of homes (SPEC §14): homes learned per minute, serially and on a local Ray with 2
+"""A fleet of homes: homes learned per minute, serially and on a local Ray with 2
 workers; and cognition under 20 concurrent clients spread over 100 homes and 2 ``homecog
 serve`` processes sharing one database.
 

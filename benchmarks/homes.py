@@ -1,6 +1,6 @@
 """Homes of any size for the scale benchmark: ``rooms`` rooms of 6 devices each.
 
-Written from the SPEC alone, in the paper's spirit: every room has a ceiling light, a desk
+Written from the home file reference alone, in the paper's spirit: every room has a ceiling light, a desk
 lamp (switched by hand), a curtain, a window, an air conditioner and a TV, each with a service
 each way; the user is in one of the rooms (``location`` has one value per room), and the
 comfort rules of a room's devices ask where the user is, what they do, the time, the

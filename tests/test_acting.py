@@ -1,4 +1,4 @@
-"""Acting (SPEC §8, §10): plans carried out through commands, replanning when one fails, as
+"""Acting: plans carried out through commands, replanning when one fails, as
 GTPyhop's run_lazy_lookahead. The world is real: the simulated home (its devices) and the
 simulated robot on the floor plan; the failing switch is a wrapper of the home's that fails on
 purpose."""

@@ -1,4 +1,4 @@
-"""A simulated run as a ROS 2 bag (SPEC §13), read back as ROS tools read it: with rosbags (as
+"""A simulated run as a ROS 2 bag, read back as ROS tools read it: with rosbags (as
 ``ros2 bag`` does, through metadata.yaml) and with Foxglove's mcap-ros2-support (the MCAP file
 alone)."""
 

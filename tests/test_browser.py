@@ -1,4 +1,4 @@
-"""The HMI in a real browser: Debian's chromium, headless, driven by Playwright (SPEC §10)."""
+"""The HMI in a real browser: Debian's chromium, headless, driven by Playwright."""
 
 from __future__ import annotations
 

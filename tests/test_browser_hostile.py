@@ -1,6 +1,6 @@
 """The HMI against markup in the data, in a real browser (Debian's chromium, driven by Playwright):
 every text from a home file or a user reaches the page as text, and the page's policy stops a
-script that markup might ever smuggle in (SPEC §16)."""
+script that markup might ever smuggle in."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""The command line contract for bad input (SPEC §11).
+"""The command line contract for bad input.
 
 Bad input exits non-zero with one line on stderr, ``homecog: error: …``, never a
 traceback, prints nothing on stdout and overwrites nothing. Good input with ``--json``

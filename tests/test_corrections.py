@@ -1,4 +1,4 @@
-"""Corrections that generalize the way a person means them (SPEC §7): which features matter is
+"""Corrections that generalize the way a person means them: which features matter is
 learned from the corrections, evidence is counted, a household's own thresholds are learned on
 the readings, nothing that would change nothing is proposed, the answers say which corrections
 answered; and still incremental, durable and per user."""

@@ -1,4 +1,4 @@
-"""The planning domain as data (SPEC §8): the notation is checked where it is written, and the
+"""The planning domain as data: the notation is checked where it is written, and the
 Python functions generated from it are the ones a person would write."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""homecog fleet train (SPEC §14): many homes into one database, serially and as tasks on a
+"""homecog fleet train: many homes into one database, serially and as tasks on a
 local Ray; a home learned for the same content is skipped, a bad home file is reported and the
 others learned, a training killed with SIGKILL leaves every home complete or absent; and the
 migration of one-home databases (schema 0002) to the keyed form, on every database."""

@@ -1,4 +1,4 @@
-"""Homes of real size (SPEC §4.1): groups from the action model, Sarsa per group, the exact rate
+"""Homes of real size: groups from the action model, Sarsa per group, the exact rate
 of the composed roll-out, the grouped Q file, ground truth and conflicts group by group, and
 sizes refused at once."""
 

@@ -1,4 +1,4 @@
-"""The HDDL export (SPEC §8): unified-planning reads the domain and problems, and Aries, where
+"""The HDDL export: unified-planning reads the domain and problems, and Aries, where
 it runs, finds the plans our planner finds."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""homecog and a real Home Assistant 2024.3.3 (SPEC §12), started once for the session from its
+"""homecog and a real Home Assistant 2024.3.3, started once for the session from its
 own venv (``.ci/home_assistant.sh`` installs it; without it these tests skip, saying why).
 
 The instance (tests/home_assistant.py) has the entities of ``tests/homes/studio_ha.yaml``; Kim,
@@ -252,7 +252,7 @@ def test_homecog_up_says_what_is_wrong_in_one_line(ha: Instance, tmp_path: Path)
     done = _cli("up", "--home", "paper", "--home-assistant", ha.url, "--ha-token", "x", env=env)
     assert (
         done.stderr.strip()
-        == "homecog: error: paper.yaml: no home_assistant section (SPEC §12); see homecog ha scaffold"
+        == "homecog: error: paper.yaml: no home_assistant section; see homecog ha scaffold"
     )
 
 

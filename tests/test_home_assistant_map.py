@@ -1,4 +1,4 @@
-"""The ``home_assistant`` section of a home file (SPEC §12): defaults per domain, value maps,
+"""The ``home_assistant`` section of a home file: defaults per domain, value maps,
 clock states, and one exact message per mistake naming the file and the key path.
 No Home Assistant is needed here (tests/test_home_assistant.py talks to a real one)."""
 
@@ -273,7 +273,7 @@ def test_the_ha_commands_say_what_is_wrong_in_one_line(
         ),
         (
             ["ha", "history", "--recorder", "x.db", "--home", "paper", "--out", out],
-            "paper.yaml: no home_assistant section (SPEC §12); see homecog ha scaffold",
+            "paper.yaml: no home_assistant section; see homecog ha scaffold",
         ),
         (
             [

@@ -1,6 +1,6 @@
 """Bad home files fail with one exact message naming the file, the key path and what was expected.
 
-SPEC §2: "Every error names the file, the key path and what was expected". Each bad case
+The contract: every error names the file, the key path and what was expected. Each bad case
 takes the valid home ``SMALL`` below (or the paper's own text), breaks one thing and checks
 the whole message of the :class:`HomeFileError`. The positive cases pin down what must load:
 YAML 1.1 booleans as device states, ``yes``/``no`` as category names, ``"HH:MM"`` clock bins,
@@ -397,7 +397,7 @@ def test_broken_home(mutate: Callable[[dict[str, Any]], None], message: str) -> 
 
 
 def test_spec_example_message_on_the_paper_home() -> None:
-    """SPEC §2's own example, word for word: a third lamp rule asking for a behaviour 'nap'."""
+    """The reference's own example: a third lamp rule asking for a behaviour 'nap'."""
     _, text = resolve_home("paper")
     lamp_end = "    - {want: off}\n  ceiling_light:\n"
     assert text.count(lamp_end) == 1

@@ -1,4 +1,4 @@
-"""Home files, event files and names against hostile input (SPEC §2, §16): one line naming what is
+"""Home files, event files and names against hostile input: one line naming what is
 wrong, fast and in bounded memory; a name is never a path; nothing is learned from a file that is
 refused; no folder is made outside the data directory."""
 

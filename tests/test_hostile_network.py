@@ -1,4 +1,4 @@
-"""The HTTP server against hostile clients (SPEC §16): half-sent requests closed within seconds,
+"""The HTTP server against hostile clients: half-sent requests closed within seconds,
 no DNS rebinding without a token, ASCII tokens only, deep JSON and NUL bytes answered 4xx in a
 line, plans bounded in size and kept off the server's own work; and the fleet's names spelled
 one way, on the real servers."""

@@ -1,4 +1,4 @@
-"""Every stage on a home of real size (SPEC §4.1): 48 devices in 8 rooms, learned group by group,
+"""Every stage on a home of real size: 48 devices in 8 rooms, learned group by group,
 built into a store, rebuilt from its compact log, asked, corrected, evaluated, planned and
 simulated."""
 

@@ -1,4 +1,4 @@
-"""The MQTT context source against a real Mosquitto broker (SPEC §10).
+"""The MQTT context source against a real Mosquitto broker.
 
 The broker is ``$HOMECOG_TEST_MQTT_URL`` or 127.0.0.1:1883 (``.ci/servers.sh`` starts one on CI);
 when nothing answers there and ``mosquitto`` is installed, one is started for the session;

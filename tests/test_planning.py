@@ -1,4 +1,4 @@
-"""HTN planning (SPEC §8): the domain derived from a home, the plan and its tree, layouts."""
+"""HTN planning: the domain derived from a home, the plan and its tree, layouts."""
 
 from __future__ import annotations
 
@@ -16,7 +16,7 @@ from homecog.planning.planner import Domain, find_plan
 
 STUDIO = Path(__file__).parent / "homes" / "studio.yaml"
 
-# The studio written from the SPEC, with a floor plan of its own and no errands: its
+# The studio written from the home file reference, with a floor plan of its own and no errands: its
 # interaction services must plan from the defaults.
 STUDIO_LAYOUT = """
 layout:

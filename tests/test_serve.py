@@ -1,4 +1,4 @@
-"""homecog serve (SPEC §14): the one-home API of every home of a database under
+"""homecog serve: the one-home API of every home of a database under
 /api/homes/{home}, with the same answers and errors as ``homecog up``; trees in a bounded
 cache, brought up to the database at each request: two servers on one PostgreSQL, a correction
 through one seen through the other at the next cognition; Schemathesis finds nothing."""

@@ -1,4 +1,4 @@
-"""The simulated home (SPEC §10): a user routine, typical-year weather, devices switched by the
+"""The simulated home: a user routine, typical-year weather, devices switched by the
 robot and by the user, every snapshot a valid context of the home."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Simulation (SPEC §8): collision-free paths on the floor plan, the robot's limits, the
+"""Simulation: collision-free paths on the floor plan, the robot's limits, the
 timeline and its durations, device switching, errors, and the Fig. 15 style drawing."""
 
 from __future__ import annotations

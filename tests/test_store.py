@@ -1,4 +1,4 @@
-"""The knowledge store (SPEC §6, §7) against SQLite, PostgreSQL and MariaDB.
+"""The knowledge store against SQLite, PostgreSQL and MariaDB.
 
 Every test runs once per database (the ``db_url`` fixture: a fresh database per test, dropped
 afterwards; a server that cannot be reached skips its tests, saying why).
@@ -237,7 +237,7 @@ def test_bad_correction_leaves_the_store_unchanged(
 def test_many_homes_and_a_changed_home_file(
     built: tuple[Store, IHDRTree], db_url: str, paper: Home, studio: Home
 ) -> None:
-    """One database holds many homes by name (SPEC §14); a home file of a stored name and other
+    """One database holds many homes by name; a home file of a stored name and other
     content is refused, naming both hashes."""
     other = Store(db_url, paper)
     try:

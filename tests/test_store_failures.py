@@ -1,4 +1,4 @@
-"""A store whose memory is what the database holds, whatever fails (SPEC §16): a correction the
+"""A store whose memory is what the database holds, whatever fails: a correction the
 database refuses leaves the tree as it was, the user's learning included, and cognition goes on
 from it; a batch that fails leaves exactly the batches stored before it. On SQLite, PostgreSQL
 and MariaDB, the write refused by a trigger as a read-only database refuses it."""

@@ -1,4 +1,4 @@
-"""The HTTP API (SPEC §10): answers, corrections per user, the token, bad input as 4xx."""
+"""The HTTP API: answers, corrections per user, the token, bad input as 4xx."""
 
 from __future__ import annotations
 

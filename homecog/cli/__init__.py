@@ -1,1 +1,1 @@
-"""The command line: ``homecog home``, ``homecog train`` and the rest (SPEC §11)."""
+"""The command line: ``homecog home``, ``homecog train`` and the rest."""

@@ -1,5 +1,5 @@
 """``homecog eval``, ``homecog replay`` and ``homecog adapt-mit``: quality on scenarios, learning
-from event streams, real data (SPEC §9, §11)."""
+from event streams, real data."""
 
 from __future__ import annotations
 

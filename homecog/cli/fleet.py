@@ -1,4 +1,4 @@
-"""``homecog fleet train`` and ``homecog serve``: a fleet of homes in one database (SPEC §14)."""
+"""``homecog fleet train`` and ``homecog serve``: a fleet of homes in one database."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""``homecog ha``: a Home Assistant instance's history and entities (SPEC §11, §12).
+"""``homecog ha``: a Home Assistant instance's history and entities.
 
 ``homecog ha history`` turns the household's own switches in the recorder into an event file;
 ``homecog ha scaffold`` writes a first home file from the instance's entities. The token of the

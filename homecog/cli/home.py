@@ -1,5 +1,5 @@
 """``homecog home show`` and ``homecog home check``: a home file read, its sizes and groups, its
-conflicting rules (SPEC §2, §4.1)."""
+conflicting rules."""
 
 from __future__ import annotations
 
@@ -21,7 +21,7 @@ from homecog.learning.size import big_number
 
 def home_summary(home: Home) -> dict[str, Any]:
     """Sizes of a home's spaces (used by ``home show`` and ``home check``): the joint space, and
-    the independent groups the learner splits it into (SPEC §4.1)."""
+    the independent groups the learner splits it into."""
     from homecog.learning.size import sizes
 
     return {

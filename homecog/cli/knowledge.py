@@ -1,5 +1,5 @@
 """``homecog cognize`` and ``homecog correct``: the services a user needs in a context, and a
-user's corrections (SPEC §5, §7, §11)."""
+user's corrections."""
 
 from __future__ import annotations
 

@@ -1,5 +1,5 @@
 """``homecog train`` and ``homecog build``: Sarsa, group by group or joint, and the knowledge tree
-built from its samples into the database (SPEC §4, §5, §11)."""
+built from its samples into the database."""
 
 from __future__ import annotations
 
@@ -24,7 +24,7 @@ from homecog.learning.size import big_number
 
 
 class Mode(StrEnum):
-    """The tree's two modes (SPEC §5)."""
+    """The tree's two modes."""
 
     multi = "multi"
     paper = "paper"

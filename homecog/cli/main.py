@@ -1,4 +1,4 @@
-"""The ``homecog`` command (SPEC §11): one module per command group, registered here.
+"""The ``homecog`` command: one module per command group, registered here.
 
 Every command takes ``--home`` (a built-in name or a path) and ``--json``. Bad input
 prints one line on stderr and exits with status 2; nothing is overwritten.
@@ -33,7 +33,7 @@ app.add_typer(home_app, name="home")
 app.add_typer(ha_app, name="ha")
 app.add_typer(log_app, name="log")
 app.add_typer(export_app, name="export")
-fleet_app = typer.Typer(help="Learn a fleet of homes into one database (SPEC §14).", no_args_is_help=True)
+fleet_app = typer.Typer(help="Learn a fleet of homes into one database.", no_args_is_help=True)
 app.add_typer(fleet_app, name="fleet")
 fleet_app.command("train")(fleet.fleet_train)
 home_app.command("show")(home.home_show)

@@ -1,4 +1,4 @@
-"""``homecog up``: the running robot, its HMI and HTTP API (SPEC §10, §12)."""
+"""``homecog up``: the running robot, its HMI and HTTP API."""
 
 from __future__ import annotations
 

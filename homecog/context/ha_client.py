@@ -1,4 +1,4 @@
-"""Talking to a Home Assistant instance's WebSocket API (SPEC §12): its address, a connection
+"""Talking to a Home Assistant instance's WebSocket API: its address, a connection
 authenticated with a token, and one-off commands.
 
 The client is ``hass-client`` (Apache-2.0, on aiohttp); docs/design.md says why. Every failure

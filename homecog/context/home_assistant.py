@@ -1,5 +1,4 @@
-"""Context from a Home Assistant instance, and the robot's IoT switches as its service calls
-(SPEC §12).
+"""Context from a Home Assistant instance, and the robot's IoT switches as its service calls.
 
 The home file's ``home_assistant`` section (:mod:`homecog.home.home_assistant`) says which entity
 holds each feature and device. :class:`HomeAssistantSource` connects to the instance's WebSocket
@@ -34,7 +33,7 @@ A home without the section, or no token, fails at once:
 >>> HomeAssistantSource(load_home("paper"), "http://127.0.0.1:8123", token="x")
 Traceback (most recent call last):
 ...
-homecog.errors.HomeAssistantError: paper.yaml: no home_assistant section (SPEC §12); see homecog ha scaffold
+homecog.errors.HomeAssistantError: paper.yaml: no home_assistant section; see homecog ha scaffold
 """
 
 from __future__ import annotations
@@ -93,9 +92,7 @@ class HomeAssistantSource(HomeAssistantConnection):
         connect_timeout: float = CONNECT_TIMEOUT,
     ) -> None:
         if home.home_assistant is None:
-            raise HomeAssistantError(
-                f"{home.source}: no home_assistant section (SPEC §12); see homecog ha scaffold"
-            )
+            raise HomeAssistantError(f"{home.source}: no home_assistant section; see homecog ha scaffold")
         if not token:
             raise HomeAssistantError(
                 f"no token for Home Assistant at {url}: set $HOMECOG_HA_TOKEN or give --ha-token, "

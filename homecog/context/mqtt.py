@@ -1,4 +1,4 @@
-"""Context from an MQTT broker, and the robot's IoT commands to it (SPEC §10).
+"""Context from an MQTT broker, and the robot's IoT commands to it.
 
 A real home (or the simulated one, through :class:`MqttPublisher`) publishes the state of every
 feature and device to a broker; :class:`MqttSource` follows those topics and gives the running

@@ -1,4 +1,4 @@
-"""A simulated home that lives through days at an accelerated clock (SPEC §10).
+"""A simulated home that lives through days at an accelerated clock.
 
 The user follows the home's routine (:mod:`homecog.home.routine`): where they are and what
 they do comes from the step that holds, and the devices a step ``set`` s are switched when it

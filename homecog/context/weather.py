@@ -1,4 +1,4 @@
-"""Outdoor temperature and daylight from real weather data, and the light indoors (SPEC §10).
+"""Outdoor temperature and daylight from real weather data, and the light indoors.
 
 The weather is a typical meteorological year: pvlib's bundled TMY3 file of Greensboro, North
 Carolina (``pvlib/data/723170TYA.CSV``, read with :func:`pvlib.iotools.read_tmy3`), hourly

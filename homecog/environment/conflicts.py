@@ -1,4 +1,4 @@
-"""Conflicting rules, group by group (``homecog home check``; SPEC §4.1).
+"""Conflicting rules, group by group (``homecog home check``).
 
 A start state is stuck when no sequence of allowed services, each of them progress (lowering
 the distance without switching a device away from the state wanted), reaches its optimum: a

@@ -1,4 +1,4 @@
-"""The vectorized core of the smart-home environment (SPEC §3).
+"""The vectorized core of the smart-home environment.
 
 A state is ``(c, h, n)``: the context index ``c`` (fixed within an episode), the device
 states ``h`` as bits (bit ``i`` set = device ``i`` on) and the pending needs ``n`` as

@@ -1,4 +1,4 @@
-"""The rules of a home as NumPy tables, evaluated over every context once (SPEC §3).
+"""The rules of a home as NumPy tables, evaluated over every context once.
 
 Per context: the devices a comfort rule cares about and their wanted states, the position of
 each need; per service: the devices it sets; prohibited rules as a context mask and device

@@ -1,1 +1,1 @@
-"""The evaluation stage: scenarios, ground truth and the figures of SPEC §9."""
+"""The evaluation stage: scenarios, ground truth and the figures of quality."""

@@ -1,6 +1,6 @@
 """``homecog eval``: every method on the same scenarios, and the robot's development with use.
 
-Quality (SPEC §9) is micro precision Σ|p∩t|/Σ|p|, recall Σ|p∩t|/Σ|t|, their F1 and the
+Quality is micro precision Σ|p∩t|/Σ|p|, recall Σ|p∩t|/Σ|t|, their F1 and the
 exact-match rate, plus the same averaged over scenarios and a per-service table.
 
 Beside every method, multi's F1 minus its own with a 95 % paired bootstrap interval over the
@@ -41,7 +41,7 @@ Progress = Callable[[str], None]
 
 
 def check_truth(home: Home, truth: Home) -> None:
-    """Refuse a truth home that is not compatible (SPEC §2), naming what differs."""
+    """Refuse a truth home that is not compatible, naming what differs."""
     problems = is_compatible(truth, home)
     if problems:
         raise EvaluationError(
@@ -189,7 +189,7 @@ def run(
     joint: bool = False,
     progress: Progress | None = None,
 ) -> EvalReport:
-    """The whole evaluation (SPEC §9, §11)."""
+    """The whole evaluation."""
     start = time.perf_counter()
     check_truth(home, truth)
     check_size(home, joint=joint)  # before anything that takes time

@@ -131,9 +131,7 @@ def read_history(
     begin = time.perf_counter()
     mapping = home.home_assistant
     if mapping is None:
-        raise HomeAssistantError(
-            f"{home.source}: no home_assistant section (SPEC §12); see homecog ha scaffold"
-        )
+        raise HomeAssistantError(f"{home.source}: no home_assistant section; see homecog ha scaffold")
     start, end = _parse_time(since, "--since"), _parse_time(until, "--until")
     url = recorder_url(recorder)
     shown = recorder if "://" not in recorder else recorder.split("@")[-1]

@@ -1,4 +1,4 @@
-"""Households with wishes of their own, for measuring how corrections generalize (SPEC §7, §9).
+"""Households with wishes of their own, for measuring how corrections generalize.
 
 A household lives in any home but wants what it wants: per device, a few ordered rules over the
 context (the first that matches gives the wanted state; none: it does not care), and per

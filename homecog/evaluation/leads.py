@@ -1,4 +1,4 @@
-"""How far one method is ahead of another on the same events, and how sure that is (SPEC §9).
+"""How far one method is ahead of another on the same events, and how sure that is.
 
 On a few hundred events two methods 0.02 F1 apart may differ by chance. :func:`f1_difference`
 gives one method's micro F1 minus another's with a 95 % *paired* bootstrap interval

@@ -1,4 +1,4 @@
-"""Every method of ``eval`` and ``replay`` learned from one policy (SPEC §9, §4.1).
+"""Every method of ``eval`` and ``replay`` learned from one policy.
 
 The trees learn the samples of every group, one group at a time. K-means and the Hoeffding
 trees learn from samples of the whole home; for a policy learned group by group these are

@@ -1,4 +1,4 @@
-"""The methods ``homecog eval`` compares, all learned from the same samples (SPEC §9).
+"""The methods ``homecog eval`` compares, all learned from the same samples.
 
 - ``multi`` and ``paper``: the IHDR tree in its two modes.
 - ``kmeans``: the paper's Table 9 baseline — scikit-learn K-means over the training samples

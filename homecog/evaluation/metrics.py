@@ -1,4 +1,4 @@
-"""Quality of service sets (SPEC §9): micro, scenario-averaged and per-service precision, recall
+"""Quality of service sets: micro, scenario-averaged and per-service precision, recall
 and F1, and the exact-match rate — one definition for ``eval``, ``replay`` and the tests.
 
 The counts come from scikit-learn's multilabel confusion matrix over the services; the ratios

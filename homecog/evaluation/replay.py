@@ -1,4 +1,4 @@
-"""``homecog replay``: prequential evaluation of an event stream (SPEC §9).
+"""``homecog replay``: prequential evaluation of an event stream.
 
 Events are read in order; every method first predicts a row, then learns it: the trees as a
 correction by the household (the same path as ``homecog correct``, in memory), the Hoeffding

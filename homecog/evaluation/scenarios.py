@@ -1,4 +1,4 @@
-"""Random scenarios with their ground truth (SPEC §9).
+"""Random scenarios with their ground truth.
 
 A scenario is a full context: a reading for every feature (uniform inside a random bin)
 and a random state for every device. Its ground truth is the set of services that takes

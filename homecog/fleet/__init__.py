@@ -1,2 +1,2 @@
-"""A fleet of homes (SPEC §14): many homes in one database, learned as tasks on Ray
+"""A fleet of homes: many homes in one database, learned as tasks on Ray
 (:mod:`homecog.fleet.train`) and served by stateless servers (:mod:`homecog.fleet.serve`)."""

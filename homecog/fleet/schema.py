@@ -1,4 +1,4 @@
-"""The OpenAPI documents of ``homecog serve`` (SPEC §14).
+"""The OpenAPI documents of ``homecog serve``.
 
 - ``GET /api/openapi.json``: the fleet's own, of ``GET /api/homes`` (the list of homes). It is
   not under ``/api/homes/``, where any name could be a home's (a home may be called

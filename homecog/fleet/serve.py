@@ -1,4 +1,4 @@
-"""``homecog serve``: the HTTP API of every home of a database (SPEC §14), stateless.
+"""``homecog serve``: the HTTP API of every home of a database, stateless.
 
 ``GET /api/homes`` lists the homes; under ``/api/homes/{home}/`` each home answers the
 one-home API of ``homecog up`` — ``home``, ``cognize``, ``corrections``, ``plan``,

@@ -1,5 +1,5 @@
 """Times of day, one parser for all of homecog: home files, contexts, scenario and event files,
-the HTTP API, MQTT and Home Assistant states (SPEC §2, §9).
+the HTTP API, MQTT and Home Assistant states.
 
 A time is ``HH:MM`` or ``HH:MM:SS`` (hours 0–24, minutes and seconds below 60) or decimal hours
 (``7.5``); ``24:00`` is the end of the day, which is midnight again.

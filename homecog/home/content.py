@@ -1,5 +1,5 @@
 """What learning depends on in a home: its canonical form as plain data, the content hash of it,
-and whether a truth home is compatible with a home (SPEC §2).
+and whether a truth home is compatible with a home.
 
 The hash leaves out the name, descriptions, rooms, the ``iot`` flags, layout and routine, so
 editing a floor plan does not throw a trained Q table away.
@@ -56,7 +56,7 @@ def content_hash(home: Home) -> str:
 
 
 def is_compatible(truth: Home, home: Home) -> list[str]:
-    """What differs between a truth home and a home where SPEC §2 requires equality ([] = compatible)."""
+    """What differs between a truth home and a home where the two must be equal ([] = compatible)."""
     problems = []
     a, b = canonical(truth), canonical(home)
     if a["context"] != b["context"]:

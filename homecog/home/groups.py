@@ -1,4 +1,4 @@
-"""Independent groups of devices, from the robot's own action model (SPEC §4.1).
+"""Independent groups of devices, from the robot's own action model.
 
 Two devices are in one group when one service sets both, or when a prohibited rule of a
 service that sets one names the other's state. A service belongs to the group of the

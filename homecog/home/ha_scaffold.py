@@ -1,4 +1,4 @@
-"""``homecog ha scaffold``: a first home file from a Home Assistant instance's entities (SPEC §12),
+"""``homecog ha scaffold``: a first home file from a Home Assistant instance's entities,
 for the user to edit.
 
 - Context features: the clock (``time``, the local clock); numeric sensors by device class
@@ -209,5 +209,5 @@ HEADER = """\
 # A first home file from a Home Assistant instance (homecog ha scaffold). Edit it before the robot
 # learns from it: remove what does not matter, name the rooms, set the bins, and write the rules
 # (comfort: the state each device should be in; needs: the services the user wants; prohibited:
-# what the robot must never do). SPEC §2 says what each key means; check it with homecog home check.
+# what the robot must never do). docs/home-file.md says what each key means; check it with homecog home check.
 """

@@ -1,5 +1,5 @@
 """The ``home_assistant:`` section of a home file: where each feature and device lives in a Home
-Assistant instance, and how its states read as the home's values (SPEC §12).
+Assistant instance, and how its states read as the home's values.
 
 .. code-block:: yaml
 

@@ -1,4 +1,4 @@
-"""The floor plan of a home (the ``layout`` section, SPEC §2, §8): rooms, walls, doors,
+"""The floor plan of a home (the ``layout`` section): rooms, walls, doors,
 places and objects in metres, and what the robot does for an interaction service.
 
 ::

@@ -1,4 +1,4 @@
-"""Load and validate home definitions (SPEC §2).
+"""Load and validate home definitions.
 
 Every error names the file, the key path and what was expected::
 

@@ -223,7 +223,7 @@ class Home:
     rewards: Rewards = field(default_factory=Rewards)
     layout: Layout | None = None
     routine: object | None = None
-    home_assistant: HomeAssistantMap | None = None  # where it lives in Home Assistant (SPEC §12)
+    home_assistant: HomeAssistantMap | None = None  # where it lives in Home Assistant
     household: Household = field(default_factory=Household)  # learning from people (§7.1)
     log: LogMap | None = None  # which entities of a log of state changes it reads
     description: str | None = None
@@ -301,7 +301,7 @@ class Home:
         self, codes: Sequence[int], states: Sequence[bool], limit: int = 256
     ) -> list[frozenset[str]]:
         """Every set of services that takes a context to its optimum: the services of a sequence
-        in which each service lowers the distance and none is prohibited (SPEC §3, §9). Smallest
+        in which each service lowers the distance and none is prohibited. Smallest
         sets first (then fewest devices set, then service order); found group by group
         (:mod:`homecog.home.truth`).
 

@@ -1,4 +1,4 @@
-"""The user's day: the ``routine`` section of a home file (SPEC §10).
+"""The user's day: the ``routine`` section of a home file.
 
 A routine is a list of steps in time order. Each step starts at ``at`` (``"HH:MM"`` or decimal
 hours) and holds until the next one; the last holds until the first one of the next day, so

@@ -1,4 +1,4 @@
-"""Scenario and event files (SPEC §9): CSV with a column per context feature and per device, a
+"""Scenario and event files: CSV with a column per context feature and per device, a
 row per context; the services wanted there come from a ``services`` column or from a truth home.
 
 Every stage that reads such a file reads it here: ``homecog eval --scenarios`` and ``homecog
@@ -67,7 +67,7 @@ def truth_of(home: Home, point: Point) -> tuple[frozenset[str], TruthChoices | t
 def load_scenarios(
     path: Path, home: Home, truth: Home, *, events: bool = False, corrections: bool = False
 ) -> list[Scenario]:
-    """Scenarios (or events) from a CSV file (SPEC §9); errors name the file, line and column.
+    """Scenarios (or events) from a CSV file; errors name the file, line and column.
 
     ``corrections``: events to learn, which must say the services wanted and may name the
     household member of each row in a ``user`` column.

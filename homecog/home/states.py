@@ -1,4 +1,4 @@
-"""Device states: one vocabulary for all of homecog (SPEC §2). ``on``/``off``, and the words
+"""Device states: one vocabulary for all of homecog. ``on``/``off``, and the words
 people and tools also write for them: true/false, yes/no, 1/0 and, for covers, open/closed.
 
 >>> parse_state("on"), parse_state(False), parse_state("OFF"), parse_state("closed")

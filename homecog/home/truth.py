@@ -1,4 +1,4 @@
-"""The ground truth of a context (SPEC §3, §9): the sets of services that take it to its
+"""The ground truth of a context: the sets of services that take it to its
 optimum in the fewest services — the services of a sequence in which each service is progress
 (the distance falls, and no device that was as wanted is switched away from it) and none is
 prohibited.

@@ -1,5 +1,5 @@
 """The validation of a parsed home file: every section checked, the model built, and every
-error naming the file, the key path and what was expected (SPEC §2).
+error naming the file, the key path and what was expected.
 
 The sections are validated by :class:`~homecog.home.context_section.ContextSection` (features)
 and :class:`~homecog.home.rule_sections.RuleSections` (comfort, needs, prohibited), with

@@ -1,4 +1,4 @@
-"""The boxes of a multi-mode service node, indexed (SPEC §5, ``multi`` mode).
+"""The boxes of a multi-mode service node, indexed (``multi`` mode).
 
 A multi node keeps boxes: clusters whose conditions are value sets on the dimensions that matter.
 :class:`BoxIndex` finds, for a point, the responding box (the lowest id where boxes of different

@@ -1,4 +1,4 @@
-"""Corrections by the household's members (SPEC §7): per user, per service, counted evidence.
+"""Corrections by the household's members: per user, per service, counted evidence.
 
 A correction (context, the services the user wants, user) is an example for every service it
 concerns: wanted there, or not. Per user and service a

@@ -1,5 +1,4 @@
-"""``homecog correct --events FILE``: a household's event file learned as corrections (SPEC §9,
-§11, §12).
+"""``homecog correct --events FILE``: a household's event file learned as corrections.
 
 The whole file is read and checked before anything is stored: a wrong header, an unknown
 service or value, an unparsable row is one error naming the file, the line and the column, and

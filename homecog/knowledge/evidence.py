@@ -1,4 +1,4 @@
-"""What one user's corrections say about one service (SPEC §7): counted evidence and the
+"""What one user's corrections say about one service: counted evidence and the
 features that matter, learned from the corrections themselves.
 
 Every correction is a labelled example for every service it could concern: the service is

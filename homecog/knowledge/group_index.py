@@ -1,7 +1,7 @@
 """Fast cognition on large homes: the responding cluster of every service, group by group.
 
 A multi tree built from a grouped policy has, for each service, clusters over the context
-features and the devices of the service's group (SPEC §4.1), and each of its conditions on a
+features and the devices of the service's group, and each of its conditions on a
 feature is a union of the group's classes of that feature's values (:mod:`homecog.home.classes`).
 So for each group a table over (the group's classes of contexts, the group's device states) can
 hold the responding cluster of each of its services: its size is that of the group's Q table,

@@ -1,4 +1,4 @@
-"""The history of corrections, read from the store's experience log (SPEC §6, §10).
+"""The history of corrections, read from the store's experience log.
 
 Each correction row of the log holds what the user wanted and what the correction added and
 rejected; what the robot had proposed is the wanted services less the added ones plus the

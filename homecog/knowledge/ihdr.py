@@ -1,4 +1,4 @@
-"""The IHDR knowledge tree (SPEC §5; the paper's §3.2, Algorithms 2 and 3).
+"""The IHDR knowledge tree (the paper's §3.2, Algorithms 2 and 3).
 
 root → service categories → services. Each node keeps clusters; a cluster keeps, per
 dimension of the input space (context features, then devices), "unrelated" or a
@@ -16,7 +16,7 @@ Two modes:
   that differs from it in one dimension, or starts a box. Numeric dimensions are kept as
   sets of bins.
 
-Corrections (SPEC §7) go into a per-user layer of clusters that add (+) or reject (−) a
+Corrections go into a per-user layer of clusters that add (+) or reject (−) a
 service where they match; the user's most specific matching cluster overrides the shared
 tree, so one user's corrections never change another's answers.
 

@@ -1,4 +1,4 @@
-"""The knowledge tree's data model (SPEC §5; the paper's §3.2, Table 6).
+"""The knowledge tree's data model (the paper's §3.2, Table 6).
 
 A :class:`Node` is the root, a service category or a service; it keeps :class:`Cluster` s. A
 cluster keeps, per dimension of the input space (context features, then devices), a condition:

@@ -1,7 +1,7 @@
 """From a home to a ready knowledge tree: find what earlier runs made, or make it.
 
 Commands that need a Q table or a tree find the ones earlier commands made for the same
-home (cached under the data directory by the home's content hash) or make them (SPEC §11).
+home (cached under the data directory by the home's content hash) or make them.
 A home is learned group by group by default; ``joint`` asks for the paper's one table.
 Whenever it learns or builds on its own, it says so, and where it keeps what it makes, on the
 ``homecog.notice`` logger (the command line prints it on stderr): a user who points

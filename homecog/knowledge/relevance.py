@@ -1,4 +1,4 @@
-"""What matters to a service, learned from the policy (SPEC §5; the paper's Table 5 zeros).
+"""What matters to a service, learned from the policy (the paper's Table 5 zeros).
 
 Over the table of "does the policy perform service *a* from start state *s*", dimension *j*
 matters at *s* when changing *j* alone flips the answer (:func:`relevance`). Where the decision

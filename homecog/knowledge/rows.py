@@ -1,4 +1,4 @@
-"""The tree's state and a build's samples as rows of the store's tables, and back (SPEC §6).
+"""The tree's state and a build's samples as rows of the store's tables, and back.
 
 The learner never touches SQL; :mod:`homecog.knowledge.store` runs the statements, this module
 says what goes into them.

@@ -1,4 +1,4 @@
-"""A build's samples as the experience log keeps them, compactly (SPEC §6).
+"""A build's samples as the experience log keeps them, compactly.
 
 A home of 48 or 1,000 devices has millions of samples; storing each one's codes and readings
 would make the log gigabytes. What the policy decided is stored — per sample the step at

@@ -1,4 +1,4 @@
-"""Samples from the Q table (SPEC §5; the paper's §3.1, §4.2, Tables 5, 7, 8).
+"""Samples from the Q table (the paper's §3.1, §4.2, Tables 5, 7, 8).
 
 From every start state, the greedy roll-out of the learned policy gives an ordered
 service sequence; numeric features get a random reading inside their bin (Table 7).
@@ -85,7 +85,7 @@ class SampleSet:
     last column of ``masks`` is what matters to "nothing to do" where no service is performed
     (sample sets stored before that column existed have none: every dimension matters).
 
-    The samples of one group of a home (SPEC §4.1) are those of the group's projection: its
+    The samples of one group of a home are those of the group's projection: its
     space is the context features and the group's devices, and ``dims`` and ``services`` give
     the position of each of its dimensions and services in the whole home (None: the same).
     Its contexts are the group's classes (``classes``, :mod:`homecog.home.classes`): a row
@@ -278,7 +278,7 @@ def code_dtype(space: Space) -> type:
 
 
 def group_samples(home: Home, policy: Policy, i: int, *, seed: int = 0) -> SampleSet:
-    """The samples of every start state of group ``i`` of a policy (SPEC §4.1), never of the
+    """The samples of every start state of group ``i`` of a policy, never of the
     joint space: the group's projection, with the group's place in the home in ``dims`` and
     ``services``. A joint policy's one group gives the home's samples as before."""
     group = policy.groups[i]

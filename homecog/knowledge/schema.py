@@ -1,4 +1,4 @@
-"""The knowledge store's tables (SPEC §6), as SQLAlchemy 2 models; Alembic migrations in
+"""The knowledge store's tables, as SQLAlchemy 2 models; Alembic migrations in
 ``migrations/`` make and change them.
 
 - ``homes``: one row per home, under its name: its hash, home file, Q tables, mode, the tree's
@@ -10,7 +10,7 @@
   indexed by (home, kind, user, id) for counts and the history of corrections.
 
 Every table but ``homes`` has a ``home`` column, the home's name, first in its keys: one
-database holds many homes (SPEC §14).
+database holds many homes.
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Cognition in the knowledge tree (SPEC §5; the paper's Algorithm 3): the service nodes whose
+"""Cognition in the knowledge tree (the paper's Algorithm 3): the service nodes whose
 clusters respond to a context, a user's corrections over them, the order of the answer, and why.
 
 :class:`TreeSearch` is the half of :class:`~homecog.knowledge.ihdr.IHDRTree` that answers; the

@@ -1,4 +1,4 @@
-"""The tree as plain data, for the store (SPEC §6): :meth:`IHDRTree.to_state` and
+"""The tree as plain data, for the store: :meth:`IHDRTree.to_state` and
 :meth:`IHDRTree.from_state` convert; :mod:`homecog.knowledge.store` maps it to rows and back.
 
 >>> from homecog.home import load_home

@@ -1,4 +1,4 @@
-"""The knowledge store: the IHDR tree and the experience log in a SQL database (SPEC §6).
+"""The knowledge store: the IHDR tree and the experience log in a SQL database.
 
 SQLAlchemy 2 over SQLite (the default: a file under the user's data directory),
 MariaDB/MySQL (PyMySQL) or PostgreSQL (psycopg 3). Nodes are rows with a parent; clusters
@@ -10,7 +10,7 @@ A correction locks its user's row (``SELECT … FOR UPDATE``; SQLite takes the d
 write lock), reloads that user's layer if another process changed it, applies the
 correction and writes it back, so concurrent corrections lose nothing.
 
-One database holds many homes (SPEC §14): every row is under its home's name, and a Store is
+One database holds many homes: every row is under its home's name, and a Store is
 one home's view of the database. The home's row has a version that moves on every write (a
 build, a correction), so a server that keeps a tree in memory sees cheaply whether it is stale
 (:meth:`Store.home_version`).

@@ -1,4 +1,4 @@
-"""Reading a home's experience log (SPEC §6): the counts of its rows, the corrections to replay
+"""Reading a home's experience log: the counts of its rows, the corrections to replay
 on a new build, and the tree rebuilt from the log alone, which must answer as the stored one;
 and whether a tree in memory is stale (the home's version) and bringing it up to date.
 

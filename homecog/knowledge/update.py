@@ -1,4 +1,4 @@
-"""How one sample row changes the clusters of a service node (SPEC §5; the paper's Algorithm 2).
+"""How one sample row changes the clusters of a service node (the paper's Algorithm 2).
 
 ``paper`` mode: one cluster per node, updated exactly as Algorithm 2 (a sample that marks a
 dimension unrelated makes it unrelated for good; values collect; readings update mean and

@@ -1,4 +1,4 @@
-"""Sarsa group by group (SPEC §4.1): one table per independent group of devices.
+"""Sarsa group by group: one table per independent group of devices.
 
 Each group is learned by the very kernel of :mod:`homecog.learning.sarsa` — the paper's
 policy, Eq. 1 on the group's own distance — on its projection (context, the group's

@@ -1,5 +1,5 @@
 """What a home learned: one Q table per independent group of devices, or the paper's one
-joint table, in one file tagged with the home's content hash (SPEC §4, §4.1).
+joint table, in one file tagged with the home's content hash.
 
 Each group's table is a :class:`~homecog.learning.qtable.QTable` of the group's projection
 (:func:`homecog.home.groups.project`): states (context, the group's devices, the group's

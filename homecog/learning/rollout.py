@@ -1,4 +1,4 @@
-"""Greedy roll-outs of a learned policy (SPEC §4, §4.1).
+"""Greedy roll-outs of a learned policy.
 
 The roll-out of one table follows its best service until the optimum. The roll-out of a
 home learned group by group performs, at each step, the best service over all groups not yet

@@ -1,4 +1,4 @@
-"""Sarsa, as the paper's Algorithm 1 with its action-selection policy (SPEC §4).
+"""Sarsa, as the paper's Algorithm 1 with its action-selection policy.
 
 In a state where every service has been tried, take the best; otherwise take the best
 with probability ε and an untried service (uniformly) with probability 1 − ε, where
@@ -244,7 +244,7 @@ def seed_rng(seed: int) -> np.ndarray:
 # -- the trainer ---------------------------------------------------------------------------
 @dataclass
 class RunFigures:
-    """What a training run reports (SPEC §11 keys)."""
+    """What a training run reports (the keys of ``homecog train --json``)."""
 
     episodes: int
     steps: int

@@ -1,4 +1,4 @@
-"""Sizes checked before any work (SPEC §4.1): a home too large for the machine's memory is
+"""Sizes checked before any work: a home too large for the machine's memory is
 refused at once, with one line naming its largest group and the sizes, instead of running for
 minutes and then failing.
 

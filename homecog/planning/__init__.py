@@ -1,4 +1,4 @@
-"""Planning: services decomposed into robot actions by an HTN planner (SPEC §8).
+"""Planning: services decomposed into robot actions by an HTN planner.
 
 >>> from homecog.home import load_home
 >>> plan = plan_services(load_home("paper"), ["CloseWindow", "ChargeItSelf"], user="sofa")

@@ -1,4 +1,4 @@
-"""Acting (SPEC §8, §10): a plan carried out through *commands*, with replanning when one fails,
+"""Acting: a plan carried out through *commands*, with replanning when one fails,
 as GTPyhop's ``run_lazy_lookahead`` (Ghallab, Nau and Traverso, *Automated Planning and
 Acting*, 2016).
 

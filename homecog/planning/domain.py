@@ -1,4 +1,4 @@
-"""The HTN domain of a home's services (SPEC §8; the paper's §3.3, Fig. 7), written once as data
+"""The HTN domain of a home's services (the paper's §3.3, Fig. 7), written once as data
 (:mod:`homecog.planning.schema`) and derived from the home's devices (``iot``), services and
 layout, so that any home with a layout plans. The planner's Python functions
 (:mod:`homecog.planning.compile`) and the HDDL export (:mod:`homecog.planning.hddl`) are both

@@ -97,7 +97,7 @@ def home_names(home: Home, state: State | None = None) -> Names:
     of ``state``) and spoken sentences."""
     layout = home.layout
     if layout is None:
-        raise PlanningError(f"home {home.name!r} has no layout; add a layout section to plan (SPEC §8)")
+        raise PlanningError(f"home {home.name!r} has no layout; add a layout section to plan")
     names = Names(home)
     for service in home.services:
         task = names.add("task", service.name, "-".join(words(service.name).split()))

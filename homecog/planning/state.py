@@ -1,4 +1,4 @@
-"""The planning state (SPEC §8): where the robot is and what it holds, where each object and
+"""The planning state: where the robot is and what it holds, where each object and
 the user are, the device states, and whether the robot is docked.
 
 >>> from homecog.home import load_home
@@ -57,7 +57,7 @@ def initial_state(
     that is a value of a context feature."""
     layout = home.layout
     if layout is None:
-        raise PlanningError(f"home {home.name!r} has no layout; add a layout section to plan (SPEC §8)")
+        raise PlanningError(f"home {home.name!r} has no layout; add a layout section to plan")
     context = context or {}
     if user is None and "location" in context:
         user = str(context["location"])

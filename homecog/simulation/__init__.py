@@ -1,4 +1,4 @@
-"""Simulation (SPEC §8): a differential-drive robot carries out a plan on the home's floor plan
+"""Simulation: a differential-drive robot carries out a plan on the home's floor plan
 along collision-free A* paths, taking time for every action and switching devices; the
 trajectory is drawn like the paper's Fig. 15.
 

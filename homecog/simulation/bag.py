@@ -1,4 +1,4 @@
-"""A simulated run as a ROS 2 bag (SPEC §13): MCAP storage and standard message types, written
+"""A simulated run as a ROS 2 bag: MCAP storage and standard message types, written
 with rosbags (no ROS installation), so that Foxglove or RViz replays it.
 
 =====================  ===========================  ==============================================

@@ -1,4 +1,4 @@
-"""The robot's trajectory on the floor plan as a PNG, like the paper's Fig. 15 (SPEC §8).
+"""The robot's trajectory on the floor plan as a PNG, like the paper's Fig. 15.
 
 Drawn with matplotlib's object interface and the Agg canvas, never pyplot, so it needs no
 display and leaves the process's matplotlib backend alone.

@@ -1,4 +1,4 @@
-"""Collision-free paths on a floor plan (SPEC §8): an occupancy grid rasterized from the
+"""Collision-free paths on a floor plan: an occupancy grid rasterized from the
 layout's walls, A* over it, and line-of-sight shortcutting of the cell path.
 
 A cell is occupied when its centre is closer to a solid wall piece (doors cut out, the border

@@ -1,4 +1,4 @@
-"""A differential-drive robot that follows waypoints (SPEC §8).
+"""A differential-drive robot that follows waypoints.
 
 It turns on the spot towards the next waypoint, then drives straight to it, never faster than
 its linear and angular limits, integrated with a fixed time step. Turning and driving never

@@ -1,4 +1,4 @@
-"""Carrying out a plan on the floor plan (SPEC §8): the robot drives collision-free paths
+"""Carrying out a plan on the floor plan: the robot drives collision-free paths
 between places, every other action takes its time, and the trajectory and a timeline are
 recorded. What an action needs and what it changes (the robot is where it picks, holds what it
 hands over; switches change the devices) is the planning domain's own actions applied to a
@@ -112,9 +112,7 @@ class Simulation:
     ) -> None:
         layout = home.layout
         if layout is None:
-            raise PlanningError(
-                f"home {home.name!r} has no layout; add a layout section to simulate (SPEC §8)"
-            )
+            raise PlanningError(f"home {home.name!r} has no layout; add a layout section to simulate")
         self.home, self.layout = home, layout
         self.robot = robot or DiffDrive()
         self.domain = domain or make_domain(home)
@@ -226,7 +224,7 @@ def simulate(
     """
     layout = home.layout
     if layout is None:
-        raise PlanningError(f"home {home.name!r} has no layout; add a layout section to simulate (SPEC §8)")
+        raise PlanningError(f"home {home.name!r} has no layout; add a layout section to simulate")
     state = state.copy() if state is not None else initial_state(home, user=user)
     if user is not None:
         _check_place(layout, user, "the user's place")

@@ -1,4 +1,4 @@
-"""The HTTP API of the running robot (SPEC §10), with OpenAPI at ``/docs`` and ``/openapi.json``.
+"""The HTTP API of the running robot, with OpenAPI at ``/docs`` and ``/openapi.json``.
 
 ========================  ===================================================================
 ``GET /api/home``         the home: features, devices, services, floor plan

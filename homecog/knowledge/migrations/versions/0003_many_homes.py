@@ -1,4 +1,4 @@
-"""Many homes in one database: every per-home table keyed by the home's name (SPEC §14).
+"""Many homes in one database: every per-home table keyed by the home's name.
 
 A database of schema 0002 holds one home (``homes.id = 1``); its rows move to the keyed form
 under that home's name, taken from the ``homes`` row. ``homes`` gains a version that moves on
