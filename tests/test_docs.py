@@ -208,3 +208,63 @@ def test_an_undocumented_key_would_be_found():
     keys = accepted_keys(data, ("layout", "errands", "BringTea"))
     assert keys == ["bring", "pour", "dock", "say"]
     assert [k for k in keys if f"`{k}`" not in "only `bring` and `dock` here"] == ["pour", "say"]
+
+
+# -- the command reference ----------------------------------------------------------------------
+def commands() -> dict[str, list[str]]:
+    """Every command of ``homecog`` (``homecog home check``) and its parameters as written on the
+    command line (``--json``, ``FILE``), from the application itself."""
+    import typer
+
+    from homecog.cli.main import app
+
+    out: dict[str, list[str]] = {}
+
+    def walk(command: Any, path: list[str]) -> None:
+        subcommands = getattr(command, "commands", None)
+        if subcommands:
+            for name, sub in subcommands.items():
+                walk(sub, [*path, name])
+            return
+        out[" ".join(path)] = [
+            p.opts[0] if p.param_type_name == "option" else p.name.upper() for p in command.params
+        ]
+
+    walk(typer.main.get_command(app), ["homecog"])
+    return out
+
+
+def undocumented(text: str, known: dict[str, list[str]]) -> list[str]:
+    """What the command reference lacks: a section per command (``### `homecog X` ``), and in it
+    every option and argument."""
+    parts = {
+        m.group(1): m.group(2)
+        for m in re.finditer(r"^### `(homecog[^`]*)`\n(.*?)(?=^##|\Z)", text, re.S | re.M)
+    }
+    problems = []
+    for command, params in known.items():
+        if command not in parts:
+            problems.append(f"{command}: no section")
+            continue
+        problems += [f"{command} {p}" for p in params if f"`{p}" not in parts[command]]
+    problems += [f"{command}: no such command" for command in parts if command not in known]
+    return problems
+
+
+def test_every_command_and_option_is_in_the_command_reference():
+    known = commands()
+    assert (
+        len(known) == 19
+        and "homecog fleet train" in known
+        and "--exclude-user" in known["homecog log events"]
+    )
+    assert undocumented((ROOT / "docs" / "commands.md").read_text(encoding="utf-8"), known) == []
+
+
+def test_a_missing_option_or_command_would_be_found():
+    text = "### `homecog plan`\n\n| `--services S` | `--home H` |\n\n### `homecog fly`\n"
+    assert undocumented(text, {"homecog plan": ["--services", "--json"], "homecog up": []}) == [
+        "homecog plan --json",
+        "homecog up: no section",
+        "homecog fly: no such command",
+    ]
