@@ -268,3 +268,44 @@ def test_a_missing_option_or_command_would_be_found():
         "homecog up: no section",
         "homecog fly: no such command",
     ]
+
+
+# -- the API reference --------------------------------------------------------------------------
+def operations(schema: dict[str, Any]) -> list[str]:
+    """``METHOD path`` of every operation of an OpenAPI document."""
+    return [f"{method.upper()} {path}" for path, ops in schema["paths"].items() for method in ops]
+
+
+def test_every_path_of_the_api_schemas_is_in_the_api_reference(tmp_path):
+    """The schemas as the servers give them: ``homecog up``'s ``/openapi.json``, and for
+    ``homecog serve`` the list's and a home's (its paths where the fleet serves them)."""
+    from fastapi.testclient import TestClient
+    from webserver import LAYOUT
+
+    from homecog.context.manual import ManualSource
+    from homecog.fleet.schema import fleet_schema, prefixed
+    from homecog.knowledge.pipeline import build
+    from homecog.knowledge.store import Store
+    from homecog.robot.runtime import Runtime
+    from homecog.web.main import create_app
+    from homecog.web.settings import Settings
+
+    home = load_home_text((ROOT / "tests" / "homes" / "studio.yaml").read_text() + LAYOUT, "studio.yaml")
+    store = Store(f"sqlite:///{tmp_path / 'k.sqlite'}", home)
+    try:
+        runtime = Runtime(home=home, store=store, tree=build(home, store).tree, source=ManualSource(home))
+        up = (
+            TestClient(create_app(runtime, Settings(token="a-token-of-the-docs"))).get("/openapi.json").json()
+        )
+        one = TestClient(create_app(runtime, fleet=True)).get("/openapi.json").json()
+    finally:
+        store.close()
+    served = operations(up) + operations(fleet_schema(token=True))
+    served += operations(prefixed(one, "/api/homes/{home}"))
+    assert len(served) == 12 + 1 + 5 and "POST /api/actions/{action}/undo" in served
+    text = (ROOT / "docs" / "api.md").read_text(encoding="utf-8")
+    assert [op for op in served if f"`{op}" not in text] == []
+    # and the reference names no operation the servers lack
+    named = set(re.findall(r"`((?:GET|PUT|POST|DELETE) /api[^`\s]*)", text))
+    schemas = {"GET /api/openapi.json", "GET /api/homes/{home}/openapi.json"}
+    assert named - set(served) - schemas == set()
