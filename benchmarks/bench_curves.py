@@ -12,7 +12,7 @@ running micro F1 after every row), ``multi`` beside every baseline:
 The trees and the Hoeffding trees start from the home's samples; K-means answers from its
 training clusters throughout; ``frequency`` and ``naive_bayes`` start from nothing and learn the
 stream alone. Writes ``docs/curves/<stream>.png``, ``docs/curves/curves.json`` and the table
-between the ``curves`` markers of the README:
+between the ``curves`` markers of docs/figures.md:
 
     bin/bench curves
     .venv/bin/python benchmarks/bench_curves.py [--corrections 1000] [--seed 0] [--streams a,b] [--no-readme]
@@ -45,7 +45,7 @@ from homecog.home import load_home  # noqa: E402
 STREAMS = ("paper_ann", "mit_subject1", "mit_subject2")
 MIT = ROOT.parent / "shared" / "realdata" / "mit-home-activity"
 OUT = ROOT / "docs" / "curves"
-README = ROOT / "README.md"
+README = ROOT / "docs" / "figures.md"  # where the table is
 BEGIN, END = "<!-- curves:begin -->", "<!-- curves:end -->"
 COLORS = {
     "multi": "#C44E52",
@@ -115,7 +115,7 @@ def table_markdown(results: dict[str, dict[str, Any]]) -> str:
             f"**{f1[m]:.3f}**" if f1.get(m) == best else (f"{f1[m]:.3f}" if m in f1 else "-") for m in methods
         ]
         lines.append(
-            f"| [{name}](docs/curves/{name}.png) | {r['events']:,} | "
+            f"| [{name}](curves/{name}.png) | {r['events']:,} | "
             + " | ".join(cells)
             + f" | {r['seconds']:.0f} s |"
         )

@@ -8,7 +8,7 @@ event predicted, then learned); the table gives every method's F1, multi's lead 
 baseline (of every method but homecog's own modes, multi and paper) and over ``ha_usage`` and
 ``markov``, with 95 % paired bootstrap intervals over the events. Writes
 ``docs/eval/real/<home>.png`` (the running F1 of every method), ``real.json`` beside them
-and the table between the ``real`` markers of the README:
+and the table between the ``real`` markers of docs/figures.md:
 
     bin/bench real
     .venv/bin/python benchmarks/bench_real.py [--homes mit_subject1,kasteren_a] [--no-readme]
@@ -39,7 +39,7 @@ from homecog.home import load_home  # noqa: E402
 DATA = ROOT.parent / "shared" / "realdata"
 HOMES = ("mit_subject1", "mit_subject2", "kasteren_a", "kasteren_b", "kasteren_c")
 OUT = ROOT / "docs" / "eval" / "real"
-README = ROOT / "README.md"
+README = ROOT / "docs" / "figures.md"  # where the table is
 BEGIN, END = "<!-- real:begin -->", "<!-- real:end -->"
 console = Console(stderr=True)
 
@@ -77,7 +77,7 @@ def table_markdown(results: dict[str, ReplayResult], switches: dict[str, int]) -
         other = max((m for m in f1 if m not in ("multi", "paper")), key=f1.__getitem__)
         events = f"{r.events:,} ({switches[name]:,} + {r.events - switches[name]:,})"
         lines.append(
-            f"| [{name}](docs/eval/real/{name}.png) | {events} | "
+            f"| [{name}](eval/real/{name}.png) | {events} | "
             + " | ".join(cells)
             + f" | {_lead(r, other)} ({other}) | {_lead(r, 'ha_usage')} | {_lead(r, 'markov')} |"
         )

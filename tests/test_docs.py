@@ -309,3 +309,47 @@ def test_every_path_of_the_api_schemas_is_in_the_api_reference(tmp_path):
     named = set(re.findall(r"`((?:GET|PUT|POST|DELETE) /api[^`\s]*)", text))
     schemas = {"GET /api/openapi.json", "GET /api/homes/{home}/openapi.json"}
     assert named - set(served) - schemas == set()
+
+
+# -- the README's tour ---------------------------------------------------------------------------
+def tour() -> list[tuple[list[str], list[str]]]:
+    """The tour's commands (``bin/homecog`` lines of its ``sh`` blocks), each with the output
+    lines the README shows after it (those of a plain block right after its ``sh`` block)."""
+    import shlex
+
+    text = (ROOT / "README.md").read_text(encoding="utf-8")
+    part = text.split("<!-- tour:begin -->")[1].split("<!-- tour:end -->")[0]
+    steps: list[tuple[list[str], list[str]]] = []
+    for m in re.finditer(r"```(\w*)\n(.*?)```(?=\n\n(```\n(.*?)```)?)", part, re.S):
+        if m.group(1) != "sh":
+            continue
+        commands = [
+            shlex.split(line)[1:] for line in m.group(2).splitlines() if line.startswith("bin/homecog ")
+        ]
+        shown = m.group(4).strip().splitlines() if m.group(3) else []
+        steps += [(c, shown if i == len(commands) - 1 else []) for i, c in enumerate(commands)]
+    return steps
+
+
+@pytest.mark.slow
+def test_the_readme_tour_runs_and_shows_what_the_commands_print(tmp_path, monkeypatch, capsys):
+    from homecog.cli.main import main
+
+    steps = tour()
+    assert [s[0][0] for s in steps] == [
+        "build",
+        "cognize",
+        "correct",
+        "cognize",
+        "replay",
+        "plan",
+        "simulate",
+    ]
+    assert sum(len(shown) for _, shown in steps) == 4 + 4 + 2
+    monkeypatch.chdir(tmp_path)  # what the tour writes (run.png) goes here
+    for args, shown in steps:
+        args = [str(ROOT / a) if a.startswith("docs/") else a for a in args]
+        assert main(args) == 0, args
+        out = [line.strip() for line in capsys.readouterr().out.splitlines()]
+        assert [line for line in shown if line.strip() not in out] == [], args
+    assert (tmp_path / "run.png").read_bytes()[:4] == b"\x89PNG"
