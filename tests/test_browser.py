@@ -112,6 +112,14 @@ def test_the_page_shows_live_context_and_takes_a_correction(server, tmp_path):
         expect(page.locator("#trajectory")).to_be_visible()
         expect(page.locator("#trajectory rect.room")).to_have_count(2)  # the studio and the bath
         expect(page.locator("#route")).to_contain_text("m driven")
+        # the plan of the services now (LampOn, RadioOn), not one drawn for those before it
+        page.wait_for_function(
+            """() => {
+                const p = document.querySelector('#trajectory #path');
+                const last = p && p.getAttribute('points').trim().split(/\\s+/).pop().split(',');
+                return last && Math.abs(last[0] - 2) < 0.05 && Math.abs(last[1] - 2) < 0.05;
+            }"""
+        )
         path = page.locator("#trajectory #path").get_attribute("points").split()
         (x0, y0), (x1, y1) = (map(float, path[0].split(",")), map(float, path[-1].split(",")))
         assert (x0, y0) == (1, 3) and abs(x1 - 2) < 0.05 and abs(y1 - 2) < 0.05  # y drawn downwards
