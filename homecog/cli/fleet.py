@@ -8,8 +8,9 @@ from typing import Annotated
 
 import typer
 
-from homecog.cli.options import HostOption, JsonOption, PortOption, UsageProblemError
+from homecog.cli.options import HostOption, JsonOption, PortOption
 from homecog.cli.output import emit_json, stderr, stdout
+from homecog.errors import UsageProblemError
 
 FleetDb = Annotated[
     str | None,

@@ -16,7 +16,6 @@ __all__ = [
     "DbOption",
     "HomeOption",
     "JsonOption",
-    "UsageProblemError",
     "UserOption",
     "check_readable",
     "check_writable",

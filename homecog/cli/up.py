@@ -14,9 +14,9 @@ from homecog.cli.options import (
     HomeOption,
     HostOption,
     PortOption,
-    UsageProblemError,
 )
 from homecog.cli.output import stdout
+from homecog.errors import UsageProblemError
 from homecog.home import load_home
 from homecog.home.household import Household
 
@@ -157,7 +157,7 @@ def up(
             SimulatedHome(h, speed=speed, routine_switches=truth is None) if speed > 0 else ManualSource(h)
         )
         if mqtt is not None:
-            from homecog.context.mqtt import MqttSource
+            from homecog.context.mqtt_source import MqttSource
 
             source = MqttSource(h, mqtt)
         if home_assistant is not None:
@@ -185,7 +185,7 @@ def up(
         if home_assistant is not None:  # running since before the training: its changes go on from here
             ha_source.on_change = functools.partial(runtime.publish, "context")
         if publish is not None:
-            from homecog.context.mqtt import MqttPublisher
+            from homecog.context.mqtt_publisher import MqttPublisher
 
             mirror = MqttPublisher(h, publish, on_command=runtime.switch).start()
             stack.callback(mirror.stop)

@@ -65,7 +65,7 @@ from homecog.context.mqtt_broker import (
 )
 from homecog.home.model import Home
 
-log = logging.getLogger("homecog.context.mqtt")
+log = logging.getLogger(__name__)
 
 DISCOVERY_PREFIX = "homeassistant"
 STATE_LIMIT = 255  # Home Assistant keeps no longer state; the whole list is an attribute

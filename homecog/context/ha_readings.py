@@ -23,7 +23,7 @@ from homecog.home.clock import format_clock
 from homecog.home.home_assistant import DeviceEntity, FeatureEntity, feature_value
 from homecog.home.model import Home
 
-log = logging.getLogger("homecog.context.home_assistant")  # one logger, named as before the split
+log = logging.getLogger(__name__)
 
 
 class EntityReadings(ConnectedSource):

@@ -27,7 +27,7 @@ from homecog.home.codec import normalize
 from homecog.home.model import Home
 from homecog.home.states import parse_state
 
-log = logging.getLogger("homecog.context.mqtt")  # one logger for MQTT, named as before the split
+log = logging.getLogger(__name__)
 
 
 class MqttPublisher:

@@ -1,9 +1,20 @@
 """The context of a home followed on an MQTT broker (:class:`MqttSource`), and the robot's
 switches published to it as commands.
 
-The topic layout is :mod:`homecog.context.mqtt`'s. A value that does not fit the home is ignored
-with a logged warning and counted; a broker that goes away is reconnected to and the topics are
-subscribed to again.
+The topic layout is :mod:`homecog.context.mqtt_broker`'s. A value that does not fit the home (an
+unknown category, not a number, outside every bin) is ignored with a logged warning and counted
+in :attr:`MqttSource.rejected`. A broker that goes away is reconnected to (with a growing delay,
+at most :data:`~homecog.context.mqtt_broker.MAX_RECONNECT_DELAY` seconds) and the topics are
+subscribed to again; retained states arrive anew.
+
+Against a broker (not run as a doctest)::
+
+    source = MqttSource(load_home("paper"), "mqtt://127.0.0.1:1883", on_change=print)
+    source.start()                      # raises MqttError when the broker cannot be reached
+    source.wait_ready(10)               # every feature and device received
+    source.snapshot()["behavior"]       # 'read'
+    source.switch("window", False)      # publishes 'off' to homecog/paper/command/window
+    source.stop()
 """
 
 from __future__ import annotations
@@ -29,7 +40,7 @@ from homecog.errors import ContextError
 from homecog.home.codec import normalize
 from homecog.home.model import Home
 
-log = logging.getLogger("homecog.context.mqtt")  # one logger for MQTT, named as before the split
+log = logging.getLogger(__name__)
 
 
 class MqttSource(ConnectedSource):
