@@ -39,6 +39,7 @@ from homecog.context.mqtt_broker import (
 from homecog.errors import ContextError
 from homecog.home.codec import normalize
 from homecog.home.model import Home
+from homecog.home.states import state_word
 
 log = logging.getLogger(__name__)
 
@@ -144,7 +145,7 @@ class MqttSource(ConnectedSource):
             )
         if self._client is None:
             raise ContextError("MQTT source not started; call start() first")
-        payload = "on" if on else "off"
+        payload = state_word(on)
         log.info("MQTT command %s -> %s", device, payload)
         # paho queues the message while the broker is away and sends it after reconnecting
         self._client.publish(command_topic(self.home, device, prefix=self.prefix), payload, qos=1)
