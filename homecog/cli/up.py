@@ -174,9 +174,16 @@ class Outside:
 
 
 def _home_assistant(home: Home, url: str, ha_token: str | None) -> Any:
+    from homecog.context.ha_client import TOKEN_HELP
     from homecog.context.home_assistant import HomeAssistantSource
+    from homecog.errors import HomeAssistantError
 
-    return HomeAssistantSource(home, url, token=ha_token or os.environ.get("HOMECOG_HA_TOKEN"))
+    token = ha_token or os.environ.get("HOMECOG_HA_TOKEN")
+    if not token and home.home_assistant is not None:  # the flag's words; the source's say no flag
+        raise HomeAssistantError(
+            f"no token for Home Assistant at {url}: set $HOMECOG_HA_TOKEN or give --ha-token, " + TOKEN_HELP
+        )
+    return HomeAssistantSource(home, url, token=token)
 
 
 def _mqtt(home: Home, url: str, ha_token: str | None) -> Any:

@@ -93,10 +93,7 @@ class HomeAssistantSource(HomeAssistantConnection):
         if home.home_assistant is None:
             raise HomeAssistantError(f"{home.source}: no home_assistant section; see homecog ha scaffold")
         if not token:
-            raise HomeAssistantError(
-                f"no token for Home Assistant at {url}: set $HOMECOG_HA_TOKEN or give --ha-token, "
-                + TOKEN_HELP
-            )
+            raise HomeAssistantError(f"no token for Home Assistant at {url}: give {TOKEN_HELP}")
         self.home = home
         self.url = url
         self.token = token
