@@ -57,10 +57,10 @@ import paho.mqtt.client as mqtt
 from homecog.context.mqtt_broker import (
     CONNECT_TIMEOUT,
     DEFAULT_PREFIX,
+    BrokerClient,
     command_topic,
     connect,
     make_client,
-    parse_url,
     state_topic,
 )
 from homecog.home.model import Home
@@ -170,7 +170,7 @@ def services_state(services: list[str]) -> str:
     return text if len(text) <= STATE_LIMIT else text[: STATE_LIMIT - 1] + "…"
 
 
-class HomeAssistantDiscovery:
+class HomeAssistantDiscovery(BrokerClient):
     """homecog on a broker for Home Assistant: the discovery configs, the robot's state, and the
     undo button's presses handed to ``on_undo`` (on a worker thread of its own; what it returns,
     the action after the undo, becomes the last action's state).
@@ -193,14 +193,9 @@ class HomeAssistantDiscovery:
         client_id: str | None = None,
         connect_timeout: float = CONNECT_TIMEOUT,
     ) -> None:
-        self.home = home
-        self.url = url
+        super().__init__(home, url, prefix=prefix, client_id=client_id, connect_timeout=connect_timeout)
         self.on_undo = on_undo
-        self.prefix = prefix
         self.discovery_prefix = discovery_prefix
-        self.client_id = client_id
-        self.connect_timeout = connect_timeout
-        self.address = parse_url(url)
         self.configs = discovery_configs(home, prefix=prefix, discovery_prefix=discovery_prefix)
         self.presses = 0
         self._availability = robot_topic(home, "availability", prefix=prefix)
@@ -208,9 +203,7 @@ class HomeAssistantDiscovery:
         self._status_topic = f"{discovery_prefix}/status"  # Home Assistant's birth and last will
         self._states: dict[str, str] = {}  # the robot's state topics, as last published
         self._lock = threading.Lock()
-        self._connected = threading.Event()
         self._worker = concurrent.futures.ThreadPoolExecutor(1, thread_name_prefix="homecog-undo")
-        self._client: mqtt.Client | None = None
 
     # -- the connection ---------------------------------------------------------------------------
     def start(self, *, wait: bool = True) -> HomeAssistantDiscovery:
@@ -291,8 +284,7 @@ class HomeAssistantDiscovery:
 
     # -- paho's callbacks (its network thread) ---------------------------------------------------
     def _on_connect(self, client: mqtt.Client, userdata: Any, flags: Any, reason: Any, props: Any) -> None:
-        if reason.is_failure:
-            log.warning("MQTT broker %s refused the connection: %s", self.address.host, reason)
+        if self._refused(reason):
             return
         self._announce(client)
         with self._lock:  # after a reconnection, the robot's state again

@@ -32,10 +32,12 @@ BrokerAddress(host='broker.local', port=8883, tls=True, username='robot', passwo
 
 from __future__ import annotations
 
+import logging
 import ssl
 import threading
 import uuid
 from dataclasses import dataclass
+from typing import Any
 from urllib.parse import unquote, urlsplit
 
 import paho.mqtt.client as mqtt
@@ -138,3 +140,29 @@ def connect(client: mqtt.Client, address: BrokerAddress, connected: threading.Ev
         client.loop_stop()
         client.disconnect()
         raise MqttError(f"MQTT broker {where} did not accept the connection within {timeout:g} s")
+
+
+class BrokerClient:
+    """What each of homecog's clients of a broker holds (the source, the publisher, the Home
+    Assistant discovery): the home, the broker's URL and address, the topic prefix, the paho
+    client once started, and whether it is connected."""
+
+    def __init__(
+        self, home: Home, url: str, *, prefix: str, client_id: str | None, connect_timeout: float
+    ) -> None:
+        self.home = home
+        self.url = url
+        self.prefix = prefix
+        self.client_id = client_id
+        self.connect_timeout = connect_timeout
+        self.address = parse_url(url)  # a bad URL fails here, before anything starts
+        self._connected = threading.Event()
+        self._client: mqtt.Client | None = None
+
+    def _refused(self, reason: Any) -> bool:
+        """Whether the broker refused the connection (logged, by the client's own module)."""
+        if reason.is_failure:
+            logging.getLogger(type(self).__module__).warning(
+                "MQTT broker %s refused the connection: %s", self.address.host, reason
+            )
+        return bool(reason.is_failure)

@@ -31,10 +31,10 @@ from homecog.context import ConnectedSource, DeviceChange
 from homecog.context.mqtt_broker import (
     CONNECT_TIMEOUT,
     DEFAULT_PREFIX,
+    BrokerClient,
     command_topic,
     connect,
     make_client,
-    parse_url,
 )
 from homecog.errors import ContextError
 from homecog.home.codec import normalize
@@ -44,7 +44,7 @@ from homecog.home.states import state_word
 log = logging.getLogger(__name__)
 
 
-class MqttSource(ConnectedSource):
+class MqttSource(BrokerClient, ConnectedSource):
     """The context of a home, followed on an MQTT broker; a :class:`ContextSource`.
 
     Parameters
@@ -74,21 +74,14 @@ class MqttSource(ConnectedSource):
         on_change: Callable[[dict[str, str]], None] | None = None,
         connect_timeout: float = CONNECT_TIMEOUT,
     ) -> None:
-        self.home = home
-        self.url = url
-        self.prefix = prefix
-        self.client_id = client_id
+        super().__init__(home, url, prefix=prefix, client_id=client_id, connect_timeout=connect_timeout)
         self.on_change = on_change
-        self.connect_timeout = connect_timeout
-        self.address = parse_url(url)  # a bad URL fails here, before anything starts
         self.rejected = 0
         self._names = home.feature_names + home.device_names
         self._devices = set(home.device_names)
         self._values: dict[str, str] = {}
         self._lock = threading.Lock()
         self._changed = threading.Condition(self._lock)
-        self._connected = threading.Event()
-        self._client: mqtt.Client | None = None
         self._base = f"{prefix}/{home.name}"
 
     # -- lifecycle -------------------------------------------------------------------
@@ -152,8 +145,7 @@ class MqttSource(ConnectedSource):
 
     # -- network thread callbacks ---------------------------------------------------------
     def _on_connect(self, client: mqtt.Client, userdata: Any, flags: Any, reason: Any, props: Any) -> None:
-        if reason.is_failure:
-            log.warning("MQTT broker %s refused the connection: %s", self.address.host, reason)
+        if self._refused(reason):
             return
         # subscribing here renews the subscriptions after every reconnect
         client.subscribe([(f"{self._base}/state/+", 1), (f"{self._base}/context", 1)])
