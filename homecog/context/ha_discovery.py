@@ -110,37 +110,33 @@ def discovery_configs(
         config = {"unique_id": uid, "object_id": uid, "device": device, **available, **fields}
         return f"{discovery_prefix}/{component}/{node}/{key}/config", config
 
-    out = dict(
-        [
-            entity(
-                "sensor",
-                "services",
-                robot,
-                name="Services",
-                icon="mdi:robot",
-                state_topic=robot_topic(home, "services", prefix=prefix),
-                json_attributes_topic=robot_topic(home, "services/attributes", prefix=prefix),
-            ),
-            entity(
-                "sensor",
-                "last_action",
-                robot,
-                name="Last action",
-                icon="mdi:robot-happy",
-                state_topic=robot_topic(home, "action", prefix=prefix),
-                json_attributes_topic=robot_topic(home, "action/attributes", prefix=prefix),
-            ),
-            entity(
-                "button",
-                "undo",
-                robot,
-                name="Undo last action",
-                icon="mdi:undo",
-                command_topic=robot_topic(home, "undo", prefix=prefix),
-                payload_press=PRESS,
-            ),
-        ]
+    sensors = (  # key, name, icon, the topic of its state (and of its attributes below it)
+        ("services", "Services", "mdi:robot", "services"),
+        ("last_action", "Last action", "mdi:robot-happy", "action"),
     )
+    out = dict(
+        entity(
+            "sensor",
+            key,
+            robot,
+            name=name,
+            icon=icon,
+            state_topic=robot_topic(home, topic, prefix=prefix),
+            json_attributes_topic=robot_topic(home, f"{topic}/attributes", prefix=prefix),
+        )
+        for key, name, icon, topic in sensors
+    )
+    undo = robot_topic(home, "undo", prefix=prefix)
+    topic, config = entity(
+        "button",
+        "undo",
+        robot,
+        name="Undo last action",
+        icon="mdi:undo",
+        command_topic=undo,
+        payload_press=PRESS,
+    )
+    out[topic] = config
     for device in home.devices:
         topic, config = entity(
             "switch",
