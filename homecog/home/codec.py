@@ -31,7 +31,7 @@ from homecog.errors import ContextError
 from homecog.home.clock import format_clock, parse_clock
 from homecog.home.model import Feature, Home, format_number
 from homecog.home.recent import Recent
-from homecog.home.states import STATE_WORDS, parse_state
+from homecog.home.states import STATE_WORDS, parse_state, state_word
 from homecog.names import shown
 
 
@@ -289,7 +289,7 @@ def normalize(home: Home, name: str, value: object) -> str:
                 return format_number(float(parsed))
             return str(parsed)
     if name in home.device_names:
-        return "on" if parse_state(value, name) else "off"
+        return state_word(parse_state(value, name))
     raise ContextError(
         f"unknown feature or device {name!r}; expected {', '.join(home.feature_names + home.device_names)}"
     )
@@ -312,7 +312,7 @@ def json_context(home: Home, values: Mapping[str, object]) -> dict[str, str | fl
         elif kind == "numeric":
             out[name] = float(home.feature(name).parse(value))
         elif kind == "device":
-            out[name] = "on" if parse_state(value, name) else "off"
+            out[name] = state_word(parse_state(value, name))
         else:
             out[name] = str(value)
     return out

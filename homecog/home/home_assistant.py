@@ -43,6 +43,7 @@ from typing import Any
 from homecog.errors import ContextError, HomeFileError
 from homecog.home.clock import format_clock, parse_clock
 from homecog.home.model import Device, Feature, format_number
+from homecog.home.states import state_word
 
 ENTITY_ID = re.compile(r"^[a-z0-9_]+\.[a-z0-9_]+$")
 SERVICE = re.compile(r"^[a-z0-9_]+\.[a-z0-9_]+$")
@@ -327,7 +328,7 @@ def _states(value: object, path: str, fail: Fail) -> tuple[str, ...]:
     out = []
     for item in items:
         if isinstance(item, bool):  # YAML's true/false: Home Assistant writes states in lowercase words
-            item = "on" if item else "off"
+            item = state_word(item)
         if not isinstance(item, (str, int, float)) or not str(item).strip():
             raise fail(path, f"expected a state or a list of states, got {_kind(value)}")
         out.append(str(item).strip())

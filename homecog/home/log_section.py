@@ -57,6 +57,7 @@ from typing import Any
 
 from homecog.errors import HomeFileError
 from homecog.home.model import Device, Feature, format_number
+from homecog.home.states import state_word
 
 Fail = Callable[[str, str], HomeFileError]
 QUIET, HOLD = 10.0, 30.0  # minutes
@@ -208,7 +209,7 @@ def _words(value: object, path: str, fail: Fail) -> tuple[str, ...]:
     out = []
     for item in items:
         if isinstance(item, bool):  # YAML's true/false
-            item = "on" if item else "off"
+            item = state_word(item)
         out.append(_name(item, path, "a state or a list of states", fail))
     if not out:
         raise fail(path, "empty list; expected at least one state")

@@ -41,6 +41,7 @@ from dataclasses import dataclass
 from datetime import datetime
 
 from homecog.home.model import Home
+from homecog.home.states import state_word
 
 UNKNOWN = "unknown"
 #: categorical features whose previous value and duration are followed, at most
@@ -133,7 +134,7 @@ class RecentPast:
         # per tracked feature: its current value, since when, and the value before it
         self._current: dict[str, tuple[str, datetime | None, str]] = {}
         self.devices = [d.name for d in home.devices]
-        self._sets = {sv.name: [(d, "on" if on else "off") for d, on in sv.sets] for sv in home.services}
+        self._sets = {sv.name: [(d, state_word(on)) for d, on in sv.sets] for sv in home.services}
         self._states: dict[str, str] = {}  # per device: its state at the latest moment
         self._switched: dict[str, datetime] = {}  # per device: when it was last seen to switch
 
