@@ -39,7 +39,7 @@ from typing import Any
 import yaml
 
 from homecog.home.home_assistant import DOMAIN_DEFAULTS, NO_READING
-from homecog.home.loader import load_home_text
+from homecog.home.validator import load_home_text
 
 INF = math.inf
 CLOCK_BINS = {"night": ["22:00", "06:00"], "morning": ["06:00", "12:00"], "afternoon": ["12:00", "18:00"],

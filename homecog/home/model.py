@@ -1,6 +1,6 @@
 """The home definition: context features, devices, services and the common-sense rules.
 
-A :class:`Home` is immutable and knows nothing of files; :mod:`homecog.home.loader`
+A :class:`Home` is immutable and knows nothing of files; :mod:`homecog.home.validator`
 builds one from YAML. Codes are 0-based indices internally; the paper's 1-based
 coding and its normalization are in :mod:`homecog.home.encoding`.
 
