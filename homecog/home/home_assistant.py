@@ -34,15 +34,13 @@ not change what the robot learns, so the section is not part of the home's conte
 from __future__ import annotations
 
 import difflib
-import math
 import re
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
 from homecog.errors import ContextError
-from homecog.home.clock import format_clock, parse_clock
-from homecog.home.model import Device, Feature, find_named, format_number
+from homecog.home.model import Device, Feature, find_named, reading_text
 from homecog.home.shapes import Fail, check_keys, kind_of, mapped_names, mapping_of
 
 ENTITY_ID = re.compile(r"^[a-z0-9_]+\.[a-z0-9_]+$")
@@ -165,13 +163,7 @@ def feature_value(feature: Feature, mapping: FeatureEntity, state: object) -> st
         return value
     expected = "HH:MM[:SS]" if feature.kind == "clock" else f"a number in {feature.unit or 'its unit'}"
     try:
-        if feature.kind == "clock":
-            value = format_clock(parse_clock(text))
-        else:
-            number = float(text)
-            if not math.isfinite(number):
-                raise ValueError(text)
-            value = format_number(number)
+        value = reading_text(feature.kind, text)
     except ValueError:
         raise ContextError(f"{where}: state {text!r} is not {expected}") from None
     try:

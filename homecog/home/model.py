@@ -43,6 +43,21 @@ def format_number(x: float) -> str:
     return str(int(x)) if float(x).is_integer() else f"{x:g}"
 
 
+def reading_text(kind: str, text: str) -> str:
+    """A clock or numeric reading written as a scenario file writes it; :class:`ValueError`
+    where ``text`` is no time (``kind`` clock) or no finite number.
+
+    >>> reading_text("clock", "7:30"), reading_text("numeric", "25.0")
+    ('07:30', '25')
+    """
+    if kind == "clock":
+        return format_clock(parse_clock(text))
+    number = float(text)
+    if not math.isfinite(number):
+        raise ValueError(text)
+    return format_number(number)
+
+
 def find_named(items: Iterable[Named], name: str, key: str = "name") -> Named:
     """The item whose ``key`` attribute is ``name``; :class:`KeyError` where none is."""
     for item in items:
