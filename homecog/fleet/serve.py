@@ -42,7 +42,7 @@ from starlette.types import Receive, Scope, Send
 from homecog.context.manual import ManualSource
 from homecog.errors import FleetError, HomecogError, StoreError, UnknownHomeError
 from homecog.fleet.schema import FLEET_SCHEMA, HOME_SCHEMA, PREFIX, fleet_schema, prefixed
-from homecog.home.loader import load_home_text
+from homecog.home.validator import load_home_text
 from homecog.knowledge.database import db_message, make_engine
 from homecog.knowledge.schema import HomeRow
 from homecog.knowledge.store import Store, migrate

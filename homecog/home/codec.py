@@ -213,7 +213,7 @@ class Space:
 
 
 def parse_context(text: str, space: Space) -> Point:
-    """A ``--context`` string: comma-separated ``name=value`` for every feature and device.
+    """A context as text: comma-separated ``name=value`` for every feature and device.
 
     >>> from homecog.home import load_home
     >>> space = Space(load_home("paper"))
@@ -230,15 +230,15 @@ def parse_context(text: str, space: Space) -> Point:
             continue
         name, equals, value = (s.strip() for s in part.partition("="))
         if not equals or not name:
-            raise ContextError(f"--context: {shown(part)} is malformed: expected name=value")
+            raise ContextError(f"context: {shown(part)} is malformed: expected name=value")
         if name in pairs:
-            raise ContextError(f"--context: {name} given twice")
+            raise ContextError(f"context: {name} given twice")
         pairs[name] = value
     return space.point(pairs)
 
 
 def parse_services(text: str | list[str], home: Home) -> list[str]:
-    """A ``--want`` list (comma-separated service names), validated; an empty string is none."""
+    """A list of services wanted (comma-separated names), validated; an empty string is none."""
     names = [s.strip() for s in text.split(",")] if isinstance(text, str) else [s.strip() for s in text]
     names = [n for n in names if n]
     known = set(home.service_names)

@@ -182,6 +182,13 @@ class RecentPast:
                 self._current[name] = (now, when, UNKNOWN)
             elif now != self._current[name][0]:
                 self._current[name] = (now, when, self._current[name][0])
+        self._learn_states(when, context)
+        if when is not None:
+            self._learn_switches(when, wanted)
+        self._previous = wanted
+
+    def _learn_states(self, when: datetime | None, context: Mapping[str, object]) -> None:
+        """The devices' states of the moment; a change is a switch at ``when``, if known."""
         for device in self.devices:
             state = context.get(device)
             if state is None:
@@ -190,15 +197,16 @@ class RecentPast:
             if device in self._states and self._states[device] != state and when is not None:
                 self._switched[device] = when
             self._states[device] = state
-        for service in wanted if when is not None else ():  # what the moment's services switched
+
+    def _learn_switches(self, when: datetime, wanted: frozenset[str]) -> None:
+        """What the moment's services switched, and the switches too old to tell forgotten."""
+        for service in wanted:
             for device, state in self._sets.get(service, ()):
                 if self._states.get(device) != state:
-                    self._switched[device] = when  # type: ignore[assignment]
+                    self._switched[device] = when
                     self._states[device] = state
-        if when is not None:
-            self._last_at = when
-            for device in [
-                d for d, at in self._switched.items() if (when - at).total_seconds() >= SPANS[-1] * 60
-            ]:
-                del self._switched[device]
-        self._previous = wanted
+        self._last_at = when
+        for device in [
+            d for d, at in self._switched.items() if (when - at).total_seconds() >= SPANS[-1] * 60
+        ]:
+            del self._switched[device]
