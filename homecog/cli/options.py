@@ -19,6 +19,7 @@ __all__ = [
     "JsonOption",
     "UsageProblemError",
     "UserOption",
+    "check_conversion",
     "check_readable",
     "check_writable",
     "method_names",
@@ -89,6 +90,13 @@ def status(message: str) -> None:
 
 #: Every method of ``eval`` and ``replay``, the default.
 ALL_METHODS = ",".join(METHOD_NAMES)
+
+
+def check_conversion(folder: Path, out: Path) -> None:
+    """Before a data set is converted: its folder is one, and the output folder can be written."""
+    if not folder.is_dir():
+        raise UsageProblemError(f"{folder}: not a folder")
+    check_writable(out / ".probe")
 
 
 def method_names(text: str) -> list[str]:

@@ -114,13 +114,22 @@ def _refuse_hoeffding(setting: Setting) -> str | None:
     )
 
 
-def _online(name: str, samples: int) -> Callable[[Setting], Method]:
+def _baseline(
+    name: str,
+    description: str,
+    *,
+    samples: int = FREQUENCY_SAMPLES,
+    refuse: Callable[[Setting], str | None] = _runs,
+) -> MethodEntry:
+    """A simple online learner (:mod:`homecog.evaluation.baselines`): in ``eval`` it learns
+    ``samples`` of the home's samples, in a replay only the household's events."""
+
     def make(setting: Setting) -> Method:
         from homecog.evaluation.baselines import OnlineMethod
 
         return OnlineMethod(name, setting.home, max_samples=samples, seed=setting.seed)
 
-    return make
+    return MethodEntry(description, make, from_rules=False, refuse=refuse)
 
 
 def _refuse_naive_bayes(setting: Setting) -> str | None:
@@ -148,27 +157,17 @@ REGISTRY: dict[str, MethodEntry] = {
     "hoeffding": MethodEntry(
         "river's Hoeffding tree, one binary classifier per service", _hoeffding, refuse=_refuse_hoeffding
     ),
-    "frequency": MethodEntry(
-        "per service, how often it was wanted in the same key; a threshold chosen online",
-        _online("frequency", FREQUENCY_SAMPLES),
-        from_rules=False,
+    "frequency": _baseline(
+        "frequency", "per service, how often it was wanted in the same key; a threshold chosen online"
     ),
-    "naive_bayes": MethodEntry(
+    "naive_bayes": _baseline(
+        "naive_bayes",
         "river's Bernoulli naive Bayes, one model per service",
-        _online("naive_bayes", NAIVE_BAYES_SAMPLES),
-        from_rules=False,
+        samples=NAIVE_BAYES_SAMPLES,
         refuse=_refuse_naive_bayes,
     ),
-    "ha_usage": MethodEntry(
-        "Home Assistant's most used services per time of day over 30 days",
-        _online("ha_usage", FREQUENCY_SAMPLES),
-        from_rules=False,
-    ),
-    "markov": MethodEntry(
-        "a last-event Markov chain over the services wanted",
-        _online("markov", FREQUENCY_SAMPLES),
-        from_rules=False,
-    ),
+    "ha_usage": _baseline("ha_usage", "Home Assistant's most used services per time of day over 30 days"),
+    "markov": _baseline("markov", "a last-event Markov chain over the services wanted"),
 }
 #: Every method's name, in the order of the reports.
 METHOD_NAMES = tuple(REGISTRY)
