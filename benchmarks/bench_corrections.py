@@ -39,8 +39,9 @@ from homes import home_text
 from homecog.evaluation.households import Household, make_household, oracle_predict
 from homecog.evaluation.leads import leads
 from homecog.evaluation.learn import learn_methods
-from homecog.evaluation.methods import METHODS, TreeMethod
+from homecog.evaluation.methods import TreeMethod
 from homecog.evaluation.metrics import prf
+from homecog.evaluation.registry import METHOD_NAMES
 from homecog.home import load_home
 from homecog.home.model import Home
 from homecog.knowledge.pipeline import ensure_policy
@@ -63,13 +64,6 @@ def homes(rooms: int) -> list[Home]:
     return out
 
 
-def learn(method: Any, point: Any, wanted: list[str]) -> None:
-    if isinstance(method, TreeMethod):
-        method.tree.correct_one(point, wanted, user=USER)
-    elif hasattr(method, "learn_one"):
-        method.learn_one(point, wanted)
-
-
 def run_household(
     learned: dict[str, Any], household: Household, *, noisy: bool, events: int, held_out: int, seed: int
 ) -> dict[str, dict[str, float]]:
@@ -87,7 +81,7 @@ def run_household(
         for name, m in methods.items():
             t0 = time.perf_counter()
             predicted = set(m.predict_one(e.point))
-            learn(m, e.point, sorted(e.wanted))
+            m.learn_one(e.point, sorted(e.wanted))
             seconds[name] += time.perf_counter() - t0
             counts[name].append(_tally(totals[name], predicted, e.wanted))
         counts["oracle"].append(_tally(totals["oracle"], set(e.clean), e.wanted))
@@ -132,7 +126,7 @@ def main() -> None:
     args = parser.parse_args()
     if args.quick:
         args.events, args.held_out, args.seeds = 300, 300, 1
-    names = [m for m in METHODS if m != "paper"]
+    names = [m for m in METHOD_NAMES if m != "paper"]
     rows = []
     for home in homes(args.rooms):
         if args.homes and home.name not in args.homes.split(","):

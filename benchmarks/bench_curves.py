@@ -36,8 +36,8 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
 from homecog.evaluation.evaluate import load_scenarios  # noqa: E402
-from homecog.evaluation.methods import METHODS  # noqa: E402
 from homecog.evaluation.mit import convert  # noqa: E402
+from homecog.evaluation.registry import METHOD_NAMES  # noqa: E402
 from homecog.evaluation.replay import ReplayResult, replay_rows  # noqa: E402
 from homecog.evaluation.scenarios import random_scenarios  # noqa: E402
 from homecog.home import load_home  # noqa: E402
@@ -71,7 +71,7 @@ def run_stream(name: str, corrections: int, seed: int, mit: Path, tmp: Path) -> 
         home = load_home(home_path)
         rows = load_scenarios(events, home, home, events=True)
         what = "events of the subject (switches and quiet moments)"
-    result = replay_rows(home, rows, methods=METHODS, seed=seed, points=100, progress=console.log)
+    result = replay_rows(home, rows, methods=METHOD_NAMES, seed=seed, points=100, progress=console.log)
     return what, result
 
 
@@ -103,7 +103,7 @@ def plot(name: str, what: str, result: ReplayResult, path: Path) -> None:
 
 
 def table_markdown(results: dict[str, dict[str, Any]]) -> str:
-    methods = [m for m in METHODS if any(m in r["methods"] for r in results.values())]
+    methods = [m for m in METHOD_NAMES if any(m in r["methods"] for r in results.values())]
     lines = [
         "| stream | rows | " + " | ".join(methods) + " | wall |",
         "|---|---|" + "---|" * len(methods) + "---|",
@@ -165,7 +165,7 @@ def main() -> None:
     summary = {k: summary[k] for k in STREAMS if k in summary}
     summary_path.write_text(json.dumps(summary, indent=1) + "\n", encoding="utf-8")
     table = Table(title=f"Final running F1 ({time.perf_counter() - start:.0f} s)", title_justify="left")
-    methods = [m for m in METHODS if any(m in r["methods"] for r in summary.values())]
+    methods = [m for m in METHOD_NAMES if any(m in r["methods"] for r in summary.values())]
     for col in ("stream", "rows", *methods):
         table.add_column(col, justify="left" if col == "stream" else "right")
     for name, r in summary.items():

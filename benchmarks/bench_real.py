@@ -31,7 +31,7 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
 from homecog.evaluation import kasteren, mit  # noqa: E402
-from homecog.evaluation.methods import METHODS  # noqa: E402
+from homecog.evaluation.registry import METHOD_NAMES  # noqa: E402
 from homecog.evaluation.replay import ReplayResult, replay  # noqa: E402
 from homecog.evaluation.report import running_chart  # noqa: E402
 from homecog.home import load_home  # noqa: E402
@@ -55,7 +55,7 @@ def convert(name: str, data: Path, tmp: Path) -> tuple[Path, Path]:
 
 def run(name: str, data: Path, tmp: Path) -> ReplayResult:
     home_path, events = convert(name, data, tmp)
-    return replay(load_home(home_path), events, methods=METHODS, points=100)
+    return replay(load_home(home_path), events, methods=METHOD_NAMES, points=100)
 
 
 def _lead(result: ReplayResult, other: str) -> str:
@@ -64,7 +64,7 @@ def _lead(result: ReplayResult, other: str) -> str:
 
 
 def table_markdown(results: dict[str, ReplayResult], switches: dict[str, int]) -> str:
-    methods = list(METHODS)
+    methods = list(METHOD_NAMES)
     head = "| home | events (switch + quiet) | " + " | ".join(methods)
     head += " | multi − best baseline [95 %] | multi − ha_usage | multi − markov |"
     lines = [head, "|---|---|" + "---|" * len(methods) + "---|---|---|"]

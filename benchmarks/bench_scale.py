@@ -23,6 +23,7 @@ import statistics
 import subprocess
 import sys
 import tempfile
+import time
 from pathlib import Path
 from typing import Any
 
@@ -183,6 +184,39 @@ def plot(rows: list[dict[str, Any]], path: Path) -> None:
     plt.close(fig)
 
 
+def coupled_home_text(n: int) -> str:
+    """A home whose one service ties ``n`` devices into one group (2^n device states)."""
+    devices = ", ".join(f"d{i}: {{}}" for i in range(n))
+    every = ", ".join(f"d{i}: off" for i in range(n))
+    comfort = "\n".join(f"  d{i}: [{{want: off}}]" for i in range(n))
+    services = "\n".join(f"  On{i}: {{category: on, set: {{d{i}: on}}}}" for i in range(n))
+    return (
+        f"name: coupled\ncontext: {{who: {{kind: categorical, values: [a, b]}}}}\ndevices: {{{devices}}}\n"
+        f"services:\n  AllOff: {{category: off, set: {{{every}}}}}\n{services}\ncomfort:\n{comfort}\n"
+    )
+
+
+def refusal_seconds(folder: Path, n: int = 34, repeats: int = 5) -> float:
+    """Median seconds to refuse a home too large to learn (a group of 2^n states): the size
+    check counts the states, it never enumerates them."""
+    from homecog.errors import HomeTooLargeError
+    from homecog.home import load_home
+    from homecog.learning.size import check_size
+
+    path = folder / f"coupled{n}.yaml"
+    path.write_text(coupled_home_text(n))
+    home = load_home(path)
+    times = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        try:
+            check_size(home)
+        except HomeTooLargeError:
+            times.append(time.perf_counter() - start)
+    assert len(times) == repeats, "the coupled home was not refused"
+    return statistics.median(times)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--rooms", default="1,2,4,8,16,32,167", help="room counts, comma-separated")
@@ -239,6 +273,9 @@ def main() -> None:
         console.print(
             f"cost of 192 devices / cost of 48: {by_devices[192]['total'] / by_devices[48]['total']:.2f}"
         )
+    with tempfile.TemporaryDirectory() as tmp:
+        refused = refusal_seconds(Path(tmp))
+    console.print(f"a home too large to learn (a group of 2^34 states) refused in {refused * 1e3:.1f} ms")
     plot(rows, args.plot)
     console.print(f"plot: {args.plot}")
 

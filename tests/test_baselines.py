@@ -131,11 +131,11 @@ def test_online_method_learns_sample_rows():
 
 
 def test_eval_learns_the_baselines_from_the_samples_within_a_budget(monkeypatch):
-    from homecog.evaluation import learn
+    from homecog.evaluation import registry
     from homecog.evaluation.evaluate import run as run_eval
 
     studio = load_home(HOMES / "studio.yaml")
-    monkeypatch.setattr(learn, "NAIVE_BAYES_BUDGET", 1_000)
+    monkeypatch.setattr(registry, "NAIVE_BAYES_BUDGET", 1_000)
     report = run_eval(studio, studio, scenarios=300, methods=["frequency", "naive_bayes"])
     assert set(report.methods) == {"frequency"}
     assert report.skipped["naive_bayes"].startswith(

@@ -10,11 +10,11 @@ import pytest
 from homecog.home import Home
 from homecog.planning import initial_state, make_domain
 from homecog.planning.compile import action_source, compile_domain, method_source, reason_source
-from homecog.planning.domain import ACTIONS, METHODS, TASKS, tables
+from homecog.planning.domain import ACTIONS, METHOD_SCHEMAS, TASKS, tables
 from homecog.planning.schema import TaskSchema, action, method
 
 PICK = next(a for a in ACTIONS if a.name == "pick")
-BY_HAND = next(m for m in METHODS if m.name == "by_hand")
+BY_HAND = next(m for m in METHOD_SCHEMAS if m.name == "by_hand")
 
 
 def test_the_generated_action_is_plain_python():
@@ -82,7 +82,7 @@ def test_the_notation_is_checked_where_it_is_written(make, message):
 def test_a_variable_must_be_bound_before_it_is_used(paper: Home):
     lost = method("lost", "goto", subtasks=[("move", "?there", "?place")])
     with pytest.raises(ValueError, match=r"method lost of goto: \?there is neither a parameter nor bound"):
-        compile_domain("d", ACTIONS, TASKS, (*METHODS, lost), tables(paper))
+        compile_domain("d", ACTIONS, TASKS, (*METHOD_SCHEMAS, lost), tables(paper))
     stray = method("stray", "Nowhere")
     with pytest.raises(ValueError, match="method stray: unknown task 'Nowhere'"):
         compile_domain("d", ACTIONS, TASKS, (stray,), tables(paper))

@@ -10,9 +10,10 @@ import pytest
 from homecog.cli.main import main
 from homecog.errors import EvaluationError
 from homecog.evaluation.evaluate import check_truth, evaluate, load_scenarios
-from homecog.evaluation.scenarios import Scenario, random_scenarios
+from homecog.evaluation.scenarios import random_scenarios
 from homecog.home import load_home
 from homecog.home.codec import Space
+from homecog.home.scenario_file import Scenario
 
 HOMES = Path(__file__).parent / "homes"
 STUDIO = str(HOMES / "studio.yaml")

@@ -8,7 +8,6 @@ import itertools
 import json
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
@@ -306,14 +305,13 @@ def _coupled_home(n: int) -> str:
     )
 
 
-def test_a_group_too_large_is_refused_at_once_naming_it(tmp_path):
+def test_a_group_too_large_is_refused_naming_it(tmp_path):
+    # (counted, never enumerated: benchmarks/bench_scale.py measures how fast)
     path = tmp_path / "coupled.yaml"
     path.write_text(_coupled_home(34))
     home = load_home(path)
-    start = time.perf_counter()
     with pytest.raises(HomeTooLargeError) as e:
         check_size(home)
-    assert time.perf_counter() - start < 0.5
     assert str(e.value) == (
         "coupled: too large to learn: its largest group, group 0 (d0, d1, d2, d3 and 30 more), has "
         "17,179,869,184 states (1 class of contexts × 2^34 device states) × 35 services; fewer "

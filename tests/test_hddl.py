@@ -31,13 +31,32 @@ ACTIONS = {
     "switch-by-hand-on", "switch-by-hand-off", "dock",
 }  # fmt: skip
 TASKS = {"goto", "switch", "fetch", "fill", "deliver"}
-METHODS = 11  # goto 2, switch 4, fetch 2, fill 2, deliver 1; and one per service
+#: The domain's methods: each one's task and subtasks (every home's; one more per service).
+DOMAIN_METHODS = {
+    "goto-move": ("goto", ["move"]),
+    "goto-stay": ("goto", ["stay"]),
+    "by-iot-on": ("switch", ["switch-iot-on"]),
+    "by-iot-off": ("switch", ["switch-iot-off"]),
+    "by-hand-on": ("switch", ["goto", "switch-by-hand-on"]),
+    "by-hand-off": ("switch", ["goto", "switch-by-hand-off"]),
+    "fetch-held": ("fetch", []),
+    "fetch-from-place": ("fetch", ["goto", "pick"]),
+    "fill-here": ("fill", ["pour"]),
+    "fill-at-source": ("fill", ["goto", "pour"]),
+    "deliver-to-user": ("deliver", ["goto", "hand-over"]),
+}
 
 REQUESTS = [
     ["SendDrinks"],
     ["SendDrinks", "TurnOnLamp", "CloseWindow"],
     ["ChargeItSelf", "RemindToSleep", "SendDrinks", "SendDrinks", "TurnOffLamp", "CallToWakeup"],
     ["TurnOnTVL", "TurnOnACL", "TurnOnLight", "OpenCurtain", "OpenWindow", "ChargeItSelf", "ChargeItSelf"],
+]
+#: Requests to the studio of the format reference (tests/homes/studio.yaml with STUDIO_LAYOUT).
+STUDIO_REQUESTS = [
+    ["BringTea"],
+    ["LampOn", "RaiseBlind", "RadioOn"],
+    ["SayGoodnight", "LampOff", "LowerBlind", "RadioOff", "BringTea"],
 ]
 IDENTIFIER = re.compile(r"^[a-z][a-z0-9_-]*$")
 
@@ -50,6 +69,11 @@ def home():
 @pytest.fixture(scope="module")
 def reader() -> PDDLReader:
     return PDDLReader()
+
+
+@pytest.fixture(scope="module")
+def studio():
+    return load_home_text(STUDIO.read_text() + STUDIO_LAYOUT, "studio.yaml")
 
 
 def parse(reader: PDDLReader, home, services: list[str], state: State) -> HierarchicalProblem:
@@ -66,7 +90,7 @@ def test_unified_planning_reads_the_domain_and_problem(home, reader, services):
     tasks = {t.name for t in problem.tasks}
     assert len(tasks) == len(TASKS) + len(home.services)
     assert tasks >= TASKS | {hddl_name(home, "task", s) for s in home.service_names}
-    assert len(problem.methods) == METHODS + len(home.services)
+    check_methods(problem, home)
     network = problem.task_network.subtasks
     assert [s.task.name for s in network] == [hddl_name(home, "task", s) for s in services]
     for name in [*tasks, *(a.name for a in problem.actions), *(o.name for o in problem.all_objects)]:
@@ -84,12 +108,28 @@ def test_initial_state_follows_the_planning_state(home, reader):
     assert "iot(lamp)" not in facts and "device-at(lamp, lamp-place)" in facts
 
 
-def test_a_home_written_from_the_spec_exports_too(reader):
-    studio = load_home_text(STUDIO.read_text() + STUDIO_LAYOUT, "studio.yaml")
+def check_methods(problem: HierarchicalProblem, home) -> None:
+    """The problem's methods are the domain's (each achieving its task by its subtasks) and one
+    a service, ``do-<its task>``, achieving the service's task by the domain's tasks and actions."""
+    methods = {
+        m.name: (m.achieved_task.task.name, [s.task.name for s in m.subtasks]) for m in problem.methods
+    }
+    assert {k: v for k, v in methods.items() if k in DOMAIN_METHODS} == DOMAIN_METHODS
+    steps = TASKS | ACTIONS
+    for service in home.service_names:
+        task = hddl_name(home, "task", service)
+        achieved, subtasks = methods.pop(f"do-{task}")
+        assert achieved == task and subtasks and set(subtasks) <= steps, (service, subtasks)
+    assert methods.keys() == DOMAIN_METHODS.keys()  # nothing else
+
+
+def test_a_home_written_from_the_spec_exports_too(reader, studio):
     services = studio.service_names
     problem = parse(reader, studio, list(services), initial_state(studio))
-    assert len(problem.methods) == METHODS + len(services)
-    assert len(problem.task_network.subtasks) == len(services)
+    check_methods(problem, studio)
+    assert [s.task.name for s in problem.task_network.subtasks] == [
+        hddl_name(studio, "task", s) for s in services
+    ]
 
 
 def test_unknown_services_and_actions_are_refused(home):
@@ -132,9 +172,8 @@ def aries():
     planner.destroy()
 
 
-@pytest.mark.parametrize("services", REQUESTS, ids=lambda s: "-".join(s))
-def test_aries_finds_our_plan(home, reader, aries, services):
-    state = initial_state(home, user="table")
+def aries_plan(aries, reader: PDDLReader, home, services: list[str], state: State) -> list:
+    """Aries' plan of the exported problem, mapped back to our actions."""
     problem = parse(reader, home, services, state)
     try:
         result = aries.solve(problem, timeout=60)
@@ -142,4 +181,19 @@ def test_aries_finds_our_plan(home, reader, aries, services):
         pytest.skip(f"Aries does not run here: {type(e).__name__}: {e}")
     assert result.plan is not None, result.status
     steps = [(a.action.name, [str(p) for p in a.actual_parameters]) for a in result.plan.action_plan.actions]
-    assert actions_from_hddl(home, steps) == plan_services(home, services, state=state).actions
+    return actions_from_hddl(home, steps)
+
+
+@pytest.mark.parametrize("services", REQUESTS, ids=lambda s: "-".join(s))
+def test_aries_finds_our_plan(home, reader, aries, services):
+    state = initial_state(home, user="table")
+    assert (
+        aries_plan(aries, reader, home, services, state) == plan_services(home, services, state=state).actions
+    )
+
+
+@pytest.mark.parametrize("services", STUDIO_REQUESTS, ids=lambda s: "-".join(s))
+def test_aries_finds_our_plan_in_the_studio(studio, reader, aries, services):
+    state = initial_state(studio)
+    ours = plan_services(studio, services, state=state).actions
+    assert ours and aries_plan(aries, reader, studio, services, state) == ours

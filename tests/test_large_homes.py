@@ -141,9 +141,9 @@ def test_the_command_line_on_48_devices(rooms8_file: Path, rooms8: Home, tmp_pat
 
 
 def test_eval_on_a_large_home_says_which_baseline_it_left_out(rooms8: Home, monkeypatch: pytest.MonkeyPatch):
-    from homecog.evaluation import learn
+    from homecog.evaluation import registry
 
-    monkeypatch.setattr(learn, "HOEFFDING_BUDGET", 1_000_000)
+    monkeypatch.setattr(registry, "HOEFFDING_BUDGET", 1_000_000)
     report = run_eval(rooms8, rooms8, scenarios=200, methods=["multi", "kmeans", "hoeffding"])
     assert set(report.methods) == {"multi", "kmeans"}
     assert report.skipped["hoeffding"].startswith(

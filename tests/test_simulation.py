@@ -7,11 +7,15 @@ import dataclasses
 import itertools
 import json
 import math
-import struct
+from collections.abc import Sequence
 from pathlib import Path
 
+import matplotlib
 import numpy as np
 import pytest
+from matplotlib.figure import Figure
+from matplotlib.image import imread
+from matplotlib.transforms import Bbox
 
 from homecog.errors import HomeFileError, PlanningError
 from homecog.home import Home, load_home_text
@@ -27,6 +31,7 @@ from homecog.simulation import (
     plan_path,
     simulate,
 )
+from homecog.simulation.draw import PAD, trajectory_figure
 from homecog.simulation.grid import RESOLUTION
 
 STUDIO = Path(__file__).parent / "homes" / "studio.yaml"
@@ -381,22 +386,84 @@ def test_home_without_a_layout_cannot_be_simulated() -> None:
 
 
 # -- the drawing ----------------------------------------------------------------------------------
-def test_drawing_is_a_png(paper: Home, tour_result: SimulationResult, tmp_path: Path) -> None:
+DPI = 150  # draw_trajectory's
+END = (0x1F / 255, 0x2D / 255, 0x3A / 255)  # the end marker's colour
+
+
+def _figure(layout: Layout, result: SimulationResult) -> tuple[Figure, Bbox]:
+    """draw_trajectory's figure drawn at its DPI, and the box (inches) its PNG is cropped to:
+    what is drawn and PAD inches around it."""
+    fig = trajectory_figure(layout, result)
+    fig.set_dpi(DPI)
+    fig.canvas.draw()
+    return fig, fig.get_tightbbox(fig.canvas.get_renderer()).padded(PAD)
+
+
+def _pixels(layout: Layout, result: SimulationResult, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Rows and columns in draw_trajectory's PNG of points in metres: the figure's axes
+    transform, shifted as the PNG is cropped."""
+    fig, box = _figure(layout, result)
+    x, y = (fig.axes[0].transData.transform(points) / DPI).T  # inches from the lower left
+    return np.rint((box.y1 - y) * DPI).astype(int), np.rint((x - box.x0) * DPI).astype(int)
+
+
+def _nearest(image: np.ndarray, row: int, col: int, colour: Sequence[float]) -> float:
+    """How far from ``colour`` the closest pixel within 2 of (row, col) is (0 to 1 a channel)."""
+    patch = image[max(row - 2, 0) : row + 3, max(col - 2, 0) : col + 3, :3]
+    return float(np.abs(patch - np.asarray(colour)).max(axis=-1).min()) if patch.size else 1.0
+
+
+def _path_shown(image: np.ndarray, layout: Layout, result: SimulationResult) -> float:
+    """The share of the moving segments whose middle the image shows in the segment's colour
+    (viridis of its end time), within two pixels; markers and labels cover the rest."""
+    t, xy = result.trajectory[:, 0], result.trajectory[:, 1:3]
+    moving = np.hypot(*(xy[1:] - xy[:-1]).T) > 0
+    rows, cols = _pixels(layout, result, ((xy[:-1] + xy[1:]) / 2)[moving])
+    colours = matplotlib.colormaps["viridis"](t[1:][moving] / result.seconds)[:, :3]
+    return float(
+        np.mean([_nearest(image, r, c, k) < 0.05 for r, c, k in zip(rows, cols, colours, strict=True)])
+    )
+
+
+def _time_colours(image: np.ndarray, layout: Layout, result: SimulationResult) -> int:
+    """How many distinct colours of the path's (viridis) the image has inside the axes."""
+    fig, box = _figure(layout, result)
+    axes = fig.axes[0].get_window_extent()  # pixels at DPI, from the lower left
+    top, bottom = (round((box.y1 - y / DPI) * DPI) for y in (axes.y1, axes.y0))
+    left, right = (round((x / DPI - box.x0) * DPI) for x in (axes.x0, axes.x1))
+    inside = np.unique(image[top + 3 : bottom - 3, left + 3 : right - 3, :3].reshape(-1, 3), axis=0)
+    viridis = matplotlib.colormaps["viridis"](np.linspace(0, 1, 256))[:, :3]
+    return int((np.abs(inside[:, None] - viridis[None]).max(axis=-1).min(axis=1) < 0.02).sum())
+
+
+def test_drawing_shows_the_path(paper: Home, tour_result: SimulationResult, tmp_path: Path) -> None:
     plan = plan_services(paper, ["SendDrinks", "CallToWakeup", "ChargeItSelf"], user="bed")
-    for name, result in [
-        ("plan.png", simulate(paper, plan.actions, state=plan.start)),
-        ("tour.png", tour_result),
-    ]:
+    runs = {"plan.png": simulate(paper, plan.actions, state=plan.start), "tour.png": tour_result}
+    images = {}
+    for name, result in runs.items():
         path = draw_trajectory(paper.layout, result, tmp_path / "figures" / name)
         data = path.read_bytes()
-        assert data[:8] == b"\x89PNG\r\n\x1a\n"
-        assert data[12:16] == b"IHDR"
-        width, height = struct.unpack(">II", data[16:24])
-        assert width > 800 and height > 600
-        assert len(data) > 30_000
-        assert data.endswith(b"IEND\xaeB`\x82")
+        assert data[:8] == b"\x89PNG\r\n\x1a\n" and data.endswith(b"IEND\xaeB`\x82")
+        images[name] = image = imread(path)
+        assert image.shape[0] > 600 and image.shape[1] > 800
+        # the robot's path, where it drove, in the colour of the time it got there
+        assert _path_shown(image, paper.layout, result) > 0.8
+    # the check tells drawings apart: neither another run's drawing nor a blank one passes
+    plan_run, tour = runs["plan.png"], runs["tour.png"]
+    assert _path_shown(images["tour.png"], paper.layout, plan_run) < 0.5
+    assert _path_shown(images["plan.png"], paper.layout, tour) < 0.5
+    assert _path_shown(np.ones_like(images["plan.png"]), paper.layout, plan_run) == 0
 
 
 def test_drawing_a_run_that_never_moves(paper: Home, tmp_path: Path) -> None:
     result = simulate(paper, [("speak", "hello")])
-    assert draw_trajectory(paper.layout, result, tmp_path / "still.png").stat().st_size > 10_000
+    image = imread(draw_trajectory(paper.layout, result, tmp_path / "still.png"))[..., :3]
+    # the end marker where the robot stood all along
+    (row,), (col,) = _pixels(paper.layout, result, result.trajectory[:1, 1:3])
+    assert _nearest(image, row, col, END) < 0.02
+    # and no path inside the axes: none of the time colours (the colour bar has them all)
+    assert _time_colours(image, paper.layout, result) == 0
+    # which a drawing of a run that moved has there
+    moved = simulate(paper, [("move", "charger", "bed")])
+    image = imread(draw_trajectory(paper.layout, moved, tmp_path / "moved.png"))[..., :3]
+    assert _time_colours(image, paper.layout, moved) > 10

@@ -4,7 +4,7 @@ from event streams, real data."""
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated, Any
+from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 
@@ -13,15 +13,19 @@ from homecog.cli.options import (
     DbOption,
     HomeOption,
     JsonOption,
+    check_conversion,
     check_readable,
     check_writable,
     method_names,
     status,
 )
-from homecog.cli.output import emit_json, stdout
+from homecog.cli.output import emit, emit_json, stdout
 from homecog.cli.render import days_table, eval_table, replay_table
 from homecog.errors import UsageProblemError
 from homecog.home import load_home
+
+if TYPE_CHECKING:
+    from homecog.evaluation.evaluate import EvalReport
 
 
 # -- homecog eval -------------------------------------------------------------------------------
@@ -75,15 +79,7 @@ def eval_command(
     if start is not None:
         raise UsageProblemError("--start is the closed loop's; give it with --days")
     names = method_names(methods)
-    if scenarios.strip().isdigit():
-        cases: int | Path = int(scenarios)
-        if cases < 1:
-            raise UsageProblemError(f"--scenarios must be at least 1, got {cases}")
-    else:
-        cases = Path(scenarios)
-        if not cases.exists() and not cases.is_symlink():
-            raise UsageProblemError(f"--scenarios {scenarios}: no such file (give a number or a CSV file)")
-        check_readable(cases, "--scenarios", "a scenario file")
+    cases = _scenarios(scenarios)
     if report is not None:
         check_writable(report / "report.md")
     result = run_eval(
@@ -97,6 +93,24 @@ def eval_command(
         joint=joint,
         progress=status,
     )
+    _show_eval(result, report, json)
+
+
+def _scenarios(text: str) -> int | Path:
+    """--scenarios: a number of random scenarios (at least 1), or a readable scenario file."""
+    if text.strip().isdigit():
+        if int(text) < 1:
+            raise UsageProblemError(f"--scenarios must be at least 1, got {int(text)}")
+        return int(text)
+    path = Path(text)
+    if not path.exists() and not path.is_symlink():
+        raise UsageProblemError(f"--scenarios {text}: no such file (give a number or a CSV file)")
+    check_readable(path, "--scenarios", "a scenario file")
+    return path
+
+
+def _show_eval(result: EvalReport, report: Path | None, json: bool) -> None:
+    """The evaluation's figures: its report written, as JSON or as a table."""
     data = result.as_dict()
     if report is not None:
         from homecog.evaluation.report import write_report
@@ -105,15 +119,20 @@ def eval_command(
     if json:
         emit_json(data)
         return
-    stdout.print(eval_table(result, h.name, t.name))
-    for name, why in result.skipped.items():
-        stdout.print(f"{name}: {why}")
+    stdout.print(eval_table(result, result.home, result.truth))
+    _say_skipped(result.skipped)
     if result.curve:
         stdout.print(
             "corrections → F1: " + ", ".join(f"{c['corrections']}: {c['f1']:.3f}" for c in result.curve)
         )
     if report is not None:
         stdout.print(f"report: {data['report']}")
+
+
+def _say_skipped(skipped: dict[str, str]) -> None:
+    """Every method left out, and why."""
+    for name, why in skipped.items():
+        stdout.print(f"{name}: {why}")
 
 
 def _closed_loop(
@@ -212,8 +231,7 @@ def replay(
         emit_json(data)
         return
     stdout.print(replay_table(result, events.name))
-    for name, why in result.skipped.items():
-        stdout.print(f"{name}: {why}")
+    _say_skipped(result.skipped)
     if report is not None:
         stdout.print(f"report: {data['report']}")
 
@@ -243,9 +261,7 @@ def adapt_mit(
     """Turn the MIT home-activity data of one subject into a home file and an event file."""
     from homecog.evaluation.mit import convert
 
-    if not folder.is_dir():
-        raise UsageProblemError(f"{folder}: not a folder")
-    check_writable(out / ".probe")
+    check_conversion(folder, out)
     home_path, events_path, n = convert(folder, out, name)
     h = load_home(home_path)  # what it wrote must load
     data = {
@@ -256,11 +272,10 @@ def adapt_mit(
         "devices": len(h.devices),
         "contexts": h.context_count,
     }
-    if json:
-        emit_json(data)
-        return
-    stdout.print(
+    emit(
+        data,
+        json,
         f"wrote {home_path} ({len(h.devices)} devices, {h.context_count} contexts) and "
-        f"{events_path} ({n} events)"
+        f"{events_path} ({n} events)",
+        f"next: homecog replay --home {home_path} --events {events_path}",
     )
-    stdout.print(f"next: homecog replay --home {home_path} --events {events_path}")

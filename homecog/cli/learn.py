@@ -18,7 +18,7 @@ from homecog.cli.options import (
     check_writable,
     status,
 )
-from homecog.cli.output import emit_json, progress_bar, stdout
+from homecog.cli.output import emit, emit_json, progress_bar, stdout
 from homecog.home import load_home
 from homecog.learning.size import big_number
 
@@ -144,11 +144,10 @@ def build(
         "db": redact(store.url),
         "mode": mode.value,
     }
-    if json:
-        emit_json(data)
-        return
-    stdout.print(
+    emit(
+        data,
+        json,
         f"built the {mode.value} tree of {h.name} from {result.samples:,} samples in {result.seconds:.1f} s: "
-        f"{counts['nodes']} nodes, {counts['clusters']:,} clusters"
+        f"{counts['nodes']} nodes, {counts['clusters']:,} clusters",
+        f"database: {data['db']}",
     )
-    stdout.print(f"database: {data['db']}")

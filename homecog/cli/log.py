@@ -12,9 +12,8 @@ from typing import Annotated
 
 import typer
 
-from homecog.cli.options import HomeOption, JsonOption, check_readable, check_writable
+from homecog.cli.options import HomeOption, JsonOption, check_conversion, check_readable, check_writable
 from homecog.cli.output import emit_json, stdout
-from homecog.errors import UsageProblemError
 from homecog.evaluation.log_events import LogEvents
 from homecog.home import load_home
 
@@ -86,9 +85,7 @@ def adapt_kasteren(
     """Turn one of van Kasteren's houses into a home file, a log and an event file."""
     from homecog.evaluation.kasteren import convert
 
-    if not folder.is_dir():
-        raise UsageProblemError(f"{folder}: not a folder")
-    check_writable(out / ".probe")
+    check_conversion(folder, out)
     done = convert(folder, house, out, name)
     h = load_home(done.home)
     if json:

@@ -9,6 +9,7 @@ from typing import TYPE_CHECKING, Annotated
 import typer
 
 from homecog.errors import UsageProblemError
+from homecog.evaluation.registry import METHOD_NAMES, REGISTRY
 from homecog.names import user_name_problem
 
 if TYPE_CHECKING:
@@ -21,6 +22,7 @@ __all__ = [
     "JsonOption",
     "TokenOption",
     "UserOption",
+    "check_conversion",
     "check_readable",
     "check_writable",
     "method_names",
@@ -121,19 +123,24 @@ def status(message: str) -> None:
         stderr.print(message, style="dim")
 
 
-#: Every method of ``eval`` and ``replay`` (homecog.evaluation.methods.METHODS), the default.
-ALL_METHODS = "multi,paper,kmeans,hoeffding,frequency,naive_bayes,ha_usage,markov"
+#: Every method of ``eval`` and ``replay``, the default.
+ALL_METHODS = ",".join(METHOD_NAMES)
+
+
+def check_conversion(folder: Path, out: Path) -> None:
+    """Before a data set is converted: its folder is one, and the output folder can be written."""
+    if not folder.is_dir():
+        raise UsageProblemError(f"{folder}: not a folder")
+    check_writable(out / ".probe")
 
 
 def method_names(text: str) -> list[str]:
     """The --methods list, validated."""
-    from homecog.evaluation.methods import METHODS
-
     names = [m.strip() for m in text.split(",") if m.strip()]
-    bad = [m for m in names if m not in METHODS]
+    bad = [m for m in names if m not in REGISTRY]
     if bad or not names:
         raise UsageProblemError(
             f"--methods: unknown method {bad[0] if bad else '(none)'!r}; "
-            f"expected some of {', '.join(METHODS)}"
+            f"expected some of {', '.join(METHOD_NAMES)}"
         )
     return names

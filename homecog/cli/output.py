@@ -29,6 +29,15 @@ def emit_json(data: dict[str, Any]) -> None:
     sys.stdout.flush()
 
 
+def emit(data: dict[str, Any], json: bool, *lines: str) -> None:
+    """``data`` as one JSON object (with ``json``), else ``lines`` for a person."""
+    if json:
+        emit_json(data)
+        return
+    for line in lines:
+        stdout.print(line)
+
+
 @contextmanager
 def progress_bar(description: str, total: int) -> Iterator[Any]:
     """A progress bar on stderr; yields ``update(done, total)``. Silent when stderr is no terminal."""

@@ -30,7 +30,7 @@ services wanted there. None reads a feature by its name: what they key on is sai
 from __future__ import annotations
 
 from collections.abc import Collection, Iterable, Mapping, Sequence
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -39,6 +39,9 @@ from homecog.home.codec import Point, Space
 from homecog.home.model import Home
 from homecog.home.recent import Recent
 from homecog.knowledge.threshold import OnlineThreshold
+
+if TYPE_CHECKING:
+    from homecog.knowledge.samples import SampleSet
 
 #: The thresholds the frequency learner chooses among (a service is proposed above it).
 THRESHOLDS = tuple(i / 10 for i in range(10))
@@ -165,11 +168,13 @@ def make_learner(name: str, home: Home) -> Learner:
 class OnlineMethod:
     """A baseline on a home's points: predicts the services in the home's order, learns a row."""
 
-    def __init__(self, name: str, home: Home) -> None:
+    def __init__(self, name: str, home: Home, *, max_samples: int = 8_000, seed: int = 0) -> None:
         if name not in BASELINES:
             raise ValueError(f"unknown baseline {name!r}; expected one of {', '.join(BASELINES)}")
         self.name = name
         self.home = home
+        self.max_samples = max_samples
+        self.seed = seed
         self.space = Space(home)
         self.learner: Learner = make_learner(name, home)
         self.clock = next((j for j, f in enumerate(home.features) if f.kind == "clock"), None)
@@ -214,6 +219,12 @@ class OnlineMethod:
 
     def _seen(self, point: Point) -> dict[str, Any]:
         return self.features(point.codes, point.readings, point.recent, point.missing)
+
+    def fit(self, samples: SampleSet) -> OnlineMethod:
+        """Learn ``max_samples`` of the home's samples, in a random order."""
+        pick = np.random.default_rng([self.seed, 11]).permutation(len(samples))[: self.max_samples]
+        self.learn_samples(samples.codes[pick], samples.positions[pick] >= 0, samples.readings[pick])
+        return self
 
     def learn_samples(
         self, codes: np.ndarray, performed: np.ndarray, readings: np.ndarray | None = None

@@ -6,7 +6,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from homecog.evaluation.report import _plt
+from homecog.evaluation.report import pyplot, save_chart
 
 COLUMNS = (
     ("robot_switches", "robot's switches", "#4C72B0"),
@@ -18,7 +18,7 @@ COLUMNS = (
 
 def days_chart(result: dict[str, Any], path: Path) -> Path:
     """Per day: the robot's switches, those undone, the household's own switches, fights."""
-    plt = _plt()
+    plt = pyplot()
     days = [d["day"] for d in result["days"]]
     fig, ax = plt.subplots(figsize=(8, 3.8))
     for key, label, color in COLUMNS:
@@ -29,10 +29,7 @@ def days_chart(result: dict[str, Any], path: Path) -> Path:
     ax.set_ylim(bottom=0)
     ax.set_title(f"{result['home']} living with a household of {result['truth']}'s wishes")
     ax.legend(fontsize=8, frameon=False)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return save_chart(fig, path)
 
 
 def write_days_report(result: dict[str, Any], folder: Path) -> Path:

@@ -23,10 +23,12 @@ from typing import Any
 
 import numpy as np
 
+from homecog.errors import EvaluationError
 from homecog.evaluation import metrics
 from homecog.evaluation.leads import Difference, event_counts, leads
-from homecog.evaluation.learn import EvaluationError, learn_methods
-from homecog.evaluation.methods import METHODS, Method, TreeMethod
+from homecog.evaluation.learn import learn_methods
+from homecog.evaluation.methods import Method, TreeMethod
+from homecog.evaluation.registry import METHOD_NAMES
 from homecog.evaluation.scenarios import random_scenarios
 from homecog.home.content import is_compatible
 from homecog.home.model import Home
@@ -182,7 +184,7 @@ def run(
     *,
     scenarios: int | Path = 2000,
     seed: int = 0,
-    methods: Sequence[str] = METHODS,
+    methods: Sequence[str] = METHOD_NAMES,
     corrections: int = 0,
     kmeans_k: int = 64,
     db: str | None = None,

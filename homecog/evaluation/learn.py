@@ -7,7 +7,7 @@ pass (a start state performs a service exactly when its group's part does), so n
 enumerates the joint space. A joint policy gives them its samples as before.
 
 A baseline that cannot run at a home's size is left out and the reason said
-(:data:`HOEFFDING_BUDGET`).
+(:attr:`homecog.evaluation.registry.MethodEntry.refuse`).
 """
 
 from __future__ import annotations
@@ -17,9 +17,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from homecog.errors import EvaluationError
-from homecog.evaluation.baselines import BASELINES, OnlineMethod
-from homecog.evaluation.methods import METHODS, HoeffdingMethod, KMeansMethod, Method, TreeMethod
+from homecog.evaluation.methods import Method, TreeMethod
+from homecog.evaluation.registry import REGISTRY, Setting, check_methods
 from homecog.home.codec import Space
 from homecog.home.model import Home
 from homecog.knowledge.ihdr import IHDRTree
@@ -30,18 +29,6 @@ from homecog.learning.policy import Policy
 Progress = Callable[[str], None]
 #: Random start states drawn for K-means and the Hoeffding trees of a grouped policy.
 DRAWS = 30_000
-#: Most (instances × features) the Hoeffding baseline's trees learn in all: river's tree
-#: updates about 150,000 features a second here, so 10 million is about a minute.
-HOEFFDING_BUDGET = 10_000_000
-HOEFFDING_SAMPLES = 8_000
-#: Samples the counting baselines (frequency, ha_usage, markov) count, and the naive Bayes
-#: baseline learns. river's
-#: BernoulliNB takes about 0.15 ms a sample and service to learn and about 0.5 ms a service to
-#: answer (paper: 10 ms a scenario), so it is given fewer samples, and is left out, like the
-#: Hoeffding trees, where (samples × services) passes its budget (homes of over 50 services).
-FREQUENCY_SAMPLES = 8_000
-NAIVE_BAYES_SAMPLES = 2_000
-NAIVE_BAYES_BUDGET = 100_000
 
 
 @dataclass
@@ -74,12 +61,52 @@ def _seen_features(home: Home, policy: Policy) -> list[list[str]]:
     return out
 
 
-def _baseline(name: str, home: Home, samples: SampleSet, n: int, seed: int) -> OnlineMethod:
-    """A simple online learner that has learned ``n`` of the samples, in a random order."""
-    method = OnlineMethod(name, home)
-    pick = np.random.default_rng([seed, 11]).permutation(len(samples))[:n]
-    method.learn_samples(samples.codes[pick], samples.positions[pick] >= 0, samples.readings[pick])
-    return method
+def _draws(home: Home, seed: int) -> tuple[SampleSet, np.ndarray]:
+    """:data:`DRAWS` random start states of the whole home, no service performed yet (the
+    groups' samples fill them in), and their codes."""
+    codes, readings = _draw_starts(home, DRAWS, np.random.default_rng([seed, 7]))
+    positions = np.full((DRAWS, len(home.services)), -1, dtype=np.int8)
+    draws = SampleSet(
+        space=Space(home),
+        codes=codes.astype(np.int16),
+        readings=readings,
+        positions=positions,
+        masks=np.zeros((DRAWS, len(home.services) + 1), dtype=np.int64),
+    )
+    return draws, codes
+
+
+def _fill(
+    draws: SampleSet, codes: np.ndarray, home: Home, policy: Policy, i: int, samples: SampleSet
+) -> None:
+    """Read the services of group ``i`` at the drawn start states off its samples."""
+    group = policy.groups[i]
+    n_f = len(home.features)
+    h = np.zeros(DRAWS, dtype=np.int64)
+    for k, d in enumerate(group.device_index):
+        h |= codes[:, n_f + d].astype(np.int64) << k
+    rows = samples.rows(codes, h)
+    draws.positions[:, list(group.service_index)] = samples.positions[rows]
+
+
+def _learn_groups(
+    home: Home, policy: Policy, grouped: Sequence[Method], whole: bool, log: SampleLog | None, seed: int
+) -> SampleSet | None:
+    """One pass over the policy's samples, group by group: the trees learn them, the log keeps
+    them; with ``whole``, the samples of the whole home the other methods learn are returned."""
+    draws, codes = _draws(home, seed) if whole and not policy.joint else (None, None)
+    groups = [i for i, g in enumerate(policy.groups) if g.services]
+    for i, samples in zip(groups, policy_samples(home, policy, seed=seed), strict=True):
+        for method in grouped:
+            method.fit(samples)
+        if log is not None:
+            log.add(samples, i)
+        if draws is not None:
+            assert codes is not None
+            _fill(draws, codes, home, policy, i, samples)
+        elif whole and policy.joint:
+            draws = samples
+    return draws
 
 
 def learn_methods(
@@ -90,83 +117,32 @@ def learn_methods(
     seed: int = 0,
     kmeans_k: int = 64,
     keep_log: bool = False,
+    user: str | None = None,
     progress: Progress | None = None,
 ) -> Learned:
-    """Learn every method named (and the multi tree) from a policy, one group at a time."""
-    unknown = [n for n in names if n not in METHODS]
-    if unknown:
-        raise EvaluationError(f"unknown method {unknown[0]!r}; expected some of {', '.join(METHODS)}")
-    wanted = [m for m in ("multi", "paper") if m in names or (m == "multi" and keep_log)]
-    trees = {mode: IHDRTree(home, mode=mode) for mode in wanted}
-    baselines = [n for n in names if n in ("kmeans", "hoeffding", *BASELINES)]
+    """Learn every method named (and the multi tree) from a policy, one group at a time; the
+    trees answer for ``user``."""
+    check_methods(names)
+    setting = Setting(home, seed=seed, kmeans_k=kmeans_k, features=_seen_features(home, policy), user=user)
+    skipped = {n: why for n in names if (why := REGISTRY[n].refuse(setting))}
+    made = {n: REGISTRY[n].make(setting) for n in names if n not in skipped}
+    if keep_log and "multi" not in made:
+        made["multi"] = REGISTRY["multi"].make(setting)
+    grouped = [m for n, m in made.items() if REGISTRY[n].by_group]
+    whole = [n for n in made if not REGISTRY[n].by_group]
     log = SampleLog(seed=seed, joint=policy.joint) if keep_log else None
-    draws: SampleSet | None = None
-    if baselines and not policy.joint:
-        codes, readings = _draw_starts(home, DRAWS, np.random.default_rng([seed, 7]))
-        n_f = len(home.features)
-        positions = np.full((DRAWS, len(home.services)), -1, dtype=np.int8)
-        draws = SampleSet(
-            space=Space(home),
-            codes=codes.astype(np.int16),
-            readings=readings,
-            positions=positions,
-            masks=np.zeros((DRAWS, len(home.services) + 1), dtype=np.int64),
-        )
     if progress:
         progress(f"learning from the samples of {len(policy.groups)} group(s) ...")
-    groups = [i for i, g in enumerate(policy.groups) if g.services]
-    for i, samples in zip(groups, policy_samples(home, policy, seed=seed), strict=True):
-        for tree in trees.values():
-            tree.learn_many(samples)
-        if log is not None:
-            log.add(samples, i)
-        if draws is not None:
-            group = policy.groups[i]
-            h = np.zeros(DRAWS, dtype=np.int64)
-            for k, d in enumerate(group.device_index):
-                h |= codes[:, n_f + d].astype(np.int64) << k
-            rows = samples.rows(codes, h)
-            draws.positions[:, list(group.service_index)] = samples.positions[rows]
-        elif baselines and policy.joint:
-            draws = samples
-    out: dict[str, Method] = {}
-    skipped: dict[str, str] = {}
-    for name in names:
-        if name in trees:
-            out[name] = TreeMethod(trees[name])
-            continue
+    draws = _learn_groups(home, policy, grouped, bool(whole), log, seed)
+    for name in whole:
+        if progress:
+            progress(f"learning {name} ...")
         assert draws is not None
-        if name == "kmeans":
-            if progress:
-                progress("learning kmeans ...")
-            out[name] = KMeansMethod(draws, k=kmeans_k, seed=seed)
-        elif name == "hoeffding":
-            # a service's tree sees the context and the devices of its group: nothing else can
-            # matter to it (the action model says so), and it keeps the baseline's cost linear
-            seen = _seen_features(home, policy)
-            work = HOEFFDING_SAMPLES * sum(len(f) for f in seen)
-            if work > HOEFFDING_BUDGET:
-                skipped[name] = (
-                    f"not run: its {len(home.services)} river trees (one per service) learning "
-                    f"{HOEFFDING_SAMPLES:,} samples would update {work:,} features, "
-                    f"{work / HOEFFDING_BUDGET:.1f} times the {HOEFFDING_BUDGET:,} (about a minute) "
-                    "it is given"
-                )
-                continue
-            if progress:
-                progress("learning hoeffding ...")
-            out[name] = HoeffdingMethod(draws, max_samples=HOEFFDING_SAMPLES, seed=seed, features=seen)
-        elif name in BASELINES:
-            n = NAIVE_BAYES_SAMPLES if name == "naive_bayes" else FREQUENCY_SAMPLES
-            work = n * len(home.services)
-            if name == "naive_bayes" and work > NAIVE_BAYES_BUDGET:
-                skipped[name] = (
-                    f"not run: its {len(home.services)} river models (one per service) learning "
-                    f"{n:,} samples would make {work:,} updates, {work / NAIVE_BAYES_BUDGET:.1f} "
-                    f"times the {NAIVE_BAYES_BUDGET:,} it is given (beyond, its answers take minutes)"
-                )
-                continue
-            if progress:
-                progress(f"learning {name} ...")
-            out[name] = _baseline(name, home, draws, n, seed)
-    return Learned(methods=out, skipped=skipped, log=log, tree=trees.get("multi"))
+        made[name].fit(draws)
+    tree = made.get("multi")
+    return Learned(
+        methods={n: made[n] for n in names if n not in skipped},
+        skipped=skipped,
+        log=log,
+        tree=tree.tree if isinstance(tree, TreeMethod) else None,
+    )

@@ -39,7 +39,6 @@ from __future__ import annotations
 
 import csv
 import io
-import math
 import time
 from collections.abc import Iterable
 from dataclasses import dataclass, field, replace
@@ -50,9 +49,10 @@ from typing import Any
 
 from homecog.errors import ContextError, LogFileError
 from homecog.evaluation.event_stream import EventStream, LogRow, Presence, Reader, Skip
-from homecog.home.clock import format_clock, parse_clock
+from homecog.home.home_assistant import FeatureEntity
+from homecog.home.home_assistant import feature_value as entity_value
 from homecog.home.log_section import LogDevice, LogFeature, LogMap
-from homecog.home.model import Feature, Home, format_number
+from homecog.home.model import Feature, Home
 from homecog.text_files import ROWS_FILE_LIMIT, read_text
 
 COLUMNS = ("timestamp", "entity", "state")
@@ -154,6 +154,37 @@ def read_log(path: Path) -> tuple[list[LogRow], int, int]:
     of rows that were out of order; :class:`LogFileError` naming the file and line."""
     reader = csv.reader(io.StringIO(_text(path), newline=""))
     header = [c.strip() for c in next(reader, [])]
+    where = _columns(path, header)
+    rows: list[LogRow] = []
+    seen: set[tuple[datetime, str, str, str | None]] = set()
+    duplicates = reordered = 0
+    latest: datetime | None = None
+    zoned: tuple[bool, int] | None = None  # whether the first timestamp had a zone, its line
+    for cells in reader:
+        if not any(c.strip() for c in cells):
+            continue
+        row = _row(path, reader.line_num, cells, where, len(header))
+        zoned = zoned or (row.at.tzinfo is not None, reader.line_num)
+        _check_zone(path, reader.line_num, row.at, zoned)
+        key = (row.at, row.entity, row.state, row.user)
+        if key in seen:
+            duplicates += 1
+            continue
+        seen.add(key)
+        if latest is not None and row.at < latest:
+            reordered += 1
+        else:
+            latest = row.at
+        rows.append(row)
+    if not rows:
+        raise LogFileError(f"{path}: no rows after the header")
+    if reordered:
+        rows.sort(key=lambda r: r.at)  # stable: rows at one time keep their order
+    return rows, duplicates, reordered
+
+
+def _columns(path: Path, header: list[str]) -> dict[str, int]:
+    """Where each column of a log's header is; :class:`LogFileError` for a missing or unknown one."""
     if not header:
         raise LogFileError(f"{path}: empty file; expected the header {','.join(COLUMNS)}[,user]")
     missing = [c for c in COLUMNS if c not in header]
@@ -162,42 +193,23 @@ def read_log(path: Path) -> tuple[list[LogRow], int, int]:
     unknown = [c for c in header if c not in (*COLUMNS, "user")]
     if unknown:
         raise LogFileError(f"{path}: line 1: unknown column(s) {', '.join(unknown)}")
-    where = {c: header.index(c) for c in header}
-    rows: list[LogRow] = []
-    seen: set[tuple[datetime, str, str, str | None]] = set()
-    duplicates = reordered = 0
-    latest: datetime | None = None
-    zoned: tuple[bool, int] | None = None  # whether the first timestamp had a zone, its line
-    for cells in reader:
-        line = reader.line_num
-        if not any(c.strip() for c in cells):
-            continue
-        if len(cells) != len(header):
-            raise LogFileError(f"{path}: line {line}: expected {len(header)} fields, got {len(cells)}")
-        at = _timestamp(path, line, cells[where["timestamp"]])
-        zoned = zoned or (at.tzinfo is not None, line)
-        if (at.tzinfo is not None) != zoned[0]:
-            with_zone = "has a time zone" if at.tzinfo else "has no time zone"
-            raise LogFileError(
-                f"{path}: line {line}, column timestamp: {with_zone}, unlike line {zoned[1]}'s"
-            )
-        user = (cells[where["user"]].strip() or None) if "user" in where else None
-        row = LogRow(at, cells[where["entity"]].strip(), cells[where["state"]].strip(), user)
-        key = (at, row.entity, row.state, user)
-        if key in seen:
-            duplicates += 1
-            continue
-        seen.add(key)
-        if latest is not None and at < latest:
-            reordered += 1
-        else:
-            latest = at
-        rows.append(row)
-    if not rows:
-        raise LogFileError(f"{path}: no rows after the header")
-    if reordered:
-        rows.sort(key=lambda r: r.at)  # stable: rows at one time keep their order
-    return rows, duplicates, reordered
+    return {c: header.index(c) for c in header}
+
+
+def _row(path: Path, line: int, cells: list[str], where: dict[str, int], width: int) -> LogRow:
+    """One line of a log (``width`` fields) as a row."""
+    if len(cells) != width:
+        raise LogFileError(f"{path}: line {line}: expected {width} fields, got {len(cells)}")
+    at = _timestamp(path, line, cells[where["timestamp"]])
+    user = (cells[where["user"]].strip() or None) if "user" in where else None
+    return LogRow(at, cells[where["entity"]].strip(), cells[where["state"]].strip(), user)
+
+
+def _check_zone(path: Path, line: int, at: datetime, zoned: tuple[bool, int]) -> None:
+    """Refuse a timestamp with a time zone in a log whose first had none, or the other way."""
+    if (at.tzinfo is not None) != zoned[0]:
+        with_zone = "has a time zone" if at.tzinfo else "has no time zone"
+        raise LogFileError(f"{path}: line {line}, column timestamp: {with_zone}, unlike line {zoned[1]}'s")
 
 
 def _text(path: Path) -> str:
@@ -264,15 +276,7 @@ def feature_value(feature: Feature, mapping: LogFeature, row: LogRow) -> str:
         if value not in feature.values:
             raise Skip("unmapped_state")
         return value
-    try:
-        if feature.kind == "clock":
-            value = format_clock(parse_clock(text))
-        else:
-            number = float(text)
-            if not math.isfinite(number):
-                raise ValueError(text)
-            value = format_number(number)
-        feature.discretize(value)
-    except (ValueError, ContextError):
+    try:  # a reading as Home Assistant's states are read
+        return entity_value(feature, FeatureEntity(mapping.feature, mapping.entity), text)
+    except ContextError:
         raise Skip("out_of_range") from None
-    return value

@@ -12,7 +12,10 @@
   (:mod:`homecog.evaluation.baselines`), learned from the samples in ``eval`` and from the
   household's own events alone in ``replay``.
 
-Every method answers ``predict_one(point)`` with the services in priority order.
+Every method speaks river's protocol: ``learn_one(point, wanted)`` learns one event and
+``predict_one(point)`` answers with the services in priority order; ``fit(samples)`` learns the
+home's samples, where a method's work starts (none is done when it is made). The methods are
+named, made and described in one place: :mod:`homecog.evaluation.registry`.
 """
 
 from __future__ import annotations
@@ -28,7 +31,6 @@ from homecog.home.model import Home
 from homecog.knowledge.ihdr import IHDRTree
 from homecog.knowledge.samples import SampleSet
 
-METHODS = ("multi", "paper", "kmeans", "hoeffding", "frequency", "naive_bayes", "ha_usage", "markov")
 #: K-means in a replay: its centroids move every REFIT events (at least k), and its clusters'
 #: services are those of the last HISTORY events.
 REFIT = 50
@@ -36,9 +38,21 @@ HISTORY = 10_000
 
 
 class Method(Protocol):
+    """What ``eval`` and ``replay`` ask of a method."""
+
     name: str
 
-    def predict_one(self, point: Point) -> list[str]: ...
+    def fit(self, samples: SampleSet) -> Method:
+        """Learn the home's samples (the trees: one group's, called once a group)."""
+        ...
+
+    def predict_one(self, point: Point) -> list[str]:
+        """The services wanted at a point, in priority order."""
+        ...
+
+    def learn_one(self, point: Point, wanted: Sequence[str]) -> None:
+        """Learn one event: the services wanted at a point."""
+        ...
 
 
 class TreeMethod:
@@ -49,8 +63,17 @@ class TreeMethod:
         self.name = tree.mode
         self.user = user
 
+    def fit(self, samples: SampleSet) -> TreeMethod:
+        """Add samples to the tree (it learns them incrementally: one group's at a time)."""
+        self.tree.learn_many(samples)
+        return self
+
     def predict_one(self, point: Point) -> list[str]:
         return self.tree.predict_one(point, user=self.user)
+
+    def learn_one(self, point: Point, wanted: Sequence[str]) -> None:
+        """A correction by the user (the same path as ``homecog correct``, in memory)."""
+        self.tree.correct_one(point, list(wanted), user=self.user)
 
 
 def _priorities(samples: SampleSet) -> np.ndarray:
@@ -107,32 +130,39 @@ class KMeansMethod:
 
     name = "kmeans"
 
-    def __init__(self, samples: SampleSet, *, k: int = 64, max_samples: int = 30_000, seed: int = 0) -> None:
+    def __init__(self, home: Home, *, k: int = 64, max_samples: int = 30_000, seed: int = 0) -> None:
+        self.home = home
+        self.k = k
+        self.max_samples = max_samples
+        self.seed = seed
+
+    def fit(self, samples: SampleSet) -> KMeansMethod:
+        """Cluster (at most ``max_samples`` of) the training samples: the clusters' services,
+        and the counts a stream then adds to."""
         from sklearn.cluster import KMeans
 
-        rng = np.random.default_rng(seed)
-        pick = rng.permutation(len(samples))[:max_samples]
-        self.home: Home = samples.space.home
+        rng = np.random.default_rng(self.seed)
+        pick = rng.permutation(len(samples))[: self.max_samples]
         self.norm = Normalizer(samples.space)
-        self.seed = seed
         x = self.norm.rows(samples.codes[pick], samples.readings[pick])
-        self.model = KMeans(n_clusters=min(k, len(pick)), n_init=3, random_state=seed).fit(x)
-        self.centers = np.asarray(self.model.cluster_centers_, dtype=np.float64)
+        model = KMeans(n_clusters=min(self.k, len(pick)), n_init=3, random_state=self.seed).fit(x)
+        self.centers = np.asarray(model.cluster_centers_, dtype=np.float64)
         performed = samples.positions[pick] >= 0
-        labels = self.model.labels_
+        labels = model.labels_
         self.services = [
             np.flatnonzero(performed[labels == c].mean(axis=0) >= 0.5)
             if (labels == c).any()
             else np.array([], int)
-            for c in range(self.model.n_clusters)
+            for c in range(model.n_clusters)
         ]
         self.priority = _priorities(samples)
-        n, a = self.model.n_clusters, len(self.home.services)
+        n, a = model.n_clusters, len(self.home.services)
         self._members = np.zeros(n, dtype=np.int64)  # per cluster: events of the stream
         self._wanted = np.zeros((n, a), dtype=np.int64)  # per cluster and service: wanted
         self._history: deque[tuple[np.ndarray, np.ndarray]] = deque(maxlen=HISTORY)
         self._new: list[np.ndarray] = []
         self._stream: Any = None  # the MiniBatchKMeans, from the first refit on
+        return self
 
     def _nearest(self, rows: np.ndarray) -> np.ndarray:
         """The nearest centroid of every row."""
@@ -187,7 +217,7 @@ class HoeffdingMethod:
 
     def __init__(
         self,
-        samples: SampleSet,
+        home: Home,
         *,
         max_samples: int = 8_000,
         seed: int = 0,
@@ -195,26 +225,32 @@ class HoeffdingMethod:
     ) -> None:
         from river import tree as river_tree
 
-        self.home = samples.space.home
-        self.space = samples.space
+        self.home = home
+        self.space = Space(home)
+        self.max_samples = max_samples
+        self.seed = seed
         # per service, the features its tree sees (default: all of them)
-        self.features = features or [list(self.space.names)] * len(self.home.services)
-        rng = np.random.default_rng(seed)
-        # a stream of max_samples instances: every sample once in a random order, and again
-        # while the home has fewer (a Hoeffding tree splits only after enough instances)
-        passes = -(-max_samples // len(samples))
-        pick = np.concatenate([rng.permutation(len(samples)) for _ in range(passes)])[:max_samples]
-        performed = samples.positions[pick] >= 0
+        self.features = features or [list(self.space.names)] * len(home.services)
         nominal = [d.name for d in self.space.dims if not d.numeric]
         self.models = [
             river_tree.HoeffdingTreeClassifier(nominal_attributes=nominal, grace_period=100)
-            for _ in self.home.services
+            for _ in home.services
         ]
+        self.priority = np.full(len(home.services), 99.0)  # as a service no sample performs
+
+    def fit(self, samples: SampleSet) -> HoeffdingMethod:
+        """Learn a stream of ``max_samples`` instances: every sample once in a random order,
+        and again while the home has fewer (a Hoeffding tree splits only after enough instances)."""
+        rng = np.random.default_rng(self.seed)
+        passes = -(-self.max_samples // len(samples))
+        pick = np.concatenate([rng.permutation(len(samples)) for _ in range(passes)])[: self.max_samples]
+        performed = samples.positions[pick] >= 0
         for row, i in enumerate(pick):
             x = self._features(samples.codes[i], samples.readings[i])
             for a, model in enumerate(self.models):
                 model.learn_one(self._seen(x, a), bool(performed[row, a]))
         self.priority = _priorities(samples)
+        return self
 
     def _seen(self, x: dict[str, Any], a: int) -> dict[str, Any]:
         names = self.features[a]

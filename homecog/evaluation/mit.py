@@ -116,35 +116,42 @@ def read_activities(path: Path) -> list[Activity]:
         lines.pop()
     if len(lines) % 5:
         raise RealDataError(f"{path}: {len(lines)} lines; expected blocks of 5 lines per activity")
-    out = []
-    for i in range(0, len(lines), 5):
-        head = lines[i].split(",")
-        if len(head) != 4:
-            raise RealDataError(f"{path}: line {i + 1}: expected NAME,DATE,START,END")
-        try:
-            month, mday, year = (int(x) for x in head[1].strip().split("/"))
-            # the data has 4/31/2003: a day past the month's end rolls over, as a clock would
-            day = date(year, month, 1) + timedelta(days=mday - 1)
-        except ValueError:
-            raise RealDataError(f"{path}: line {i + 1}: {head[1]!r} is not a date M/D/YYYY") from None
-        start = _time(day, head[2], path, i + 1)
-        end = _time(day, head[3], path, i + 1)
-        if end < start:
-            end += timedelta(days=1)
-        ids, ons, offs = (lines[i + k].split(",") if lines[i + k].strip() else [] for k in (1, 3, 4))
-        if not len(ids) == len(ons) == len(offs):
-            raise RealDataError(f"{path}: lines {i + 2}-{i + 5}: sensor ids and times do not pair up")
-        activity = Activity(name=head[0].strip(), start=start, end=end)
-        for sensor, on_text, off_text in zip(ids, ons, offs, strict=True):
-            on = _time(day, on_text, path, i + 4)
-            if on < start - timedelta(hours=12):
-                on += timedelta(days=1)
-            off = _time(day, off_text, path, i + 5)
-            while off < on:
-                off += timedelta(days=1)
-            activity.firings.append((sensor.strip(), on, off))
-        out.append(activity)
-    return out
+    return [_activity(path, lines, i) for i in range(0, len(lines), 5)]
+
+
+def _activity(path: Path, lines: list[str], i: int) -> Activity:
+    """The activity of the block of five lines from line ``i`` (from 0)."""
+    head = lines[i].split(",")
+    if len(head) != 4:
+        raise RealDataError(f"{path}: line {i + 1}: expected NAME,DATE,START,END")
+    day = _day(path, i + 1, head[1])
+    start = _time(day, head[2], path, i + 1)
+    end = _time(day, head[3], path, i + 1)
+    if end < start:
+        end += timedelta(days=1)
+    ids, ons, offs = (lines[i + k].split(",") if lines[i + k].strip() else [] for k in (1, 3, 4))
+    if not len(ids) == len(ons) == len(offs):
+        raise RealDataError(f"{path}: lines {i + 2}-{i + 5}: sensor ids and times do not pair up")
+    activity = Activity(name=head[0].strip(), start=start, end=end)
+    for sensor, on_text, off_text in zip(ids, ons, offs, strict=True):
+        on = _time(day, on_text, path, i + 4)
+        if on < start - timedelta(hours=12):
+            on += timedelta(days=1)
+        off = _time(day, off_text, path, i + 5)
+        while off < on:
+            off += timedelta(days=1)
+        activity.firings.append((sensor.strip(), on, off))
+    return activity
+
+
+def _day(path: Path, line: int, text: str) -> date:
+    """An activity's date, M/D/YYYY."""
+    try:
+        month, mday, year = (int(x) for x in text.strip().split("/"))
+        # the data has 4/31/2003: a day past the month's end rolls over, as a clock would
+        return date(year, month, 1) + timedelta(days=mday - 1)
+    except ValueError:
+        raise RealDataError(f"{path}: line {line}: {text!r} is not a date M/D/YYYY") from None
 
 
 def behavior_of(name: str) -> str:

@@ -25,16 +25,17 @@ from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any, TextIO
+from typing import Any, TextIO, TypedDict, Unpack
 
 import numpy as np
 
 from homecog.errors import EvaluationError
-from homecog.evaluation.baselines import BASELINES, OnlineMethod
 from homecog.evaluation.leads import Difference, leads
 from homecog.evaluation.learn import Learned, learn_methods
-from homecog.evaluation.methods import METHODS, HoeffdingMethod, KMeansMethod, TreeMethod
+from homecog.evaluation.methods import Method
 from homecog.evaluation.metrics import prf
+from homecog.evaluation.registry import METHOD_NAMES, REGISTRY, Setting, check_methods
+from homecog.home.codec import Point
 from homecog.home.model import Home
 from homecog.home.recent import RecentPast
 from homecog.home.scenario_file import Scenario, load_scenarios
@@ -77,13 +78,6 @@ class ReplayResult:
         }
 
 
-def _learn(method: Any, point: Any, wanted: Sequence[str]) -> None:
-    if isinstance(method, TreeMethod):
-        method.tree.correct_one(point, list(wanted), user=USER)
-    elif isinstance(method, HoeffdingMethod | OnlineMethod | KMeansMethod):
-        method.learn_one(point, wanted)
-
-
 def prediction_line(i: int, row: Scenario, answers: dict[str, Sequence[str]], order: Sequence[str]) -> str:
     """One event of a predictions file: its number (from 1), time, truth and every method's
     answer, services in the home's order.
@@ -117,38 +111,82 @@ def _predictions_file(path: Path | None) -> Iterator[TextIO | None]:
         yield f
 
 
-def replay(
-    home: Home,
-    events: Path,
-    *,
-    methods: Sequence[str] = METHODS,
-    seed: int = 0,
-    points: int = 200,
-    joint: bool = False,
-    progress: Progress | None = None,
-    predictions: Path | None = None,
-) -> ReplayResult:
+class ReplayOptions(TypedDict, total=False):
+    """The options of :func:`replay` and :func:`replay_rows`."""
+
+    methods: Sequence[str]
+    seed: int
+    points: int
+    joint: bool
+    progress: Progress | None
+    predictions: Path | None
+
+
+def replay(home: Home, events: Path, **options: Unpack[ReplayOptions]) -> ReplayResult:
     """Predict, then learn, every event in order; figures per method and their running course
     (and with ``predictions``, every answer into that file)."""
-    check_size(home, joint=joint)  # before anything that takes time
+    check_size(home, joint=options.get("joint", False))  # before anything that takes time
     rows = load_scenarios(events, home, home, events=True)
-    return replay_rows(
-        home,
-        rows,
-        methods=methods,
-        seed=seed,
-        points=points,
-        joint=joint,
-        progress=progress,
-        predictions=predictions,
-    )
+    return replay_rows(home, rows, **options)
+
+
+def _start(
+    home: Home, methods: Sequence[str], *, seed: int, joint: bool, progress: Progress | None
+) -> tuple[dict[str, Method], dict[str, str]]:
+    """Every method named, ready for the first event: those of the home's rules learned from its
+    policy's samples, the others knowing nothing; and those left out, with why."""
+    check_methods(methods)
+    from_rules = [m for m in methods if REGISTRY[m].from_rules]
+    learning = Learned(methods={})
+    if from_rules:
+        policy = ensure_policy(home, joint=joint, progress=progress)
+        learning = learn_methods(home, policy, from_rules, seed=seed, user=USER, progress=progress)
+    setting = Setting(home, seed=seed, user=USER)
+    started = {
+        name: learning.methods[name] if REGISTRY[name].from_rules else REGISTRY[name].make(setting)
+        for name in methods
+        if name not in learning.skipped
+    }
+    return started, learning.skipped
+
+
+@dataclass
+class _Tally:
+    """One method's figures as a replay goes: totals, the running course, every event's counts."""
+
+    totals: list[int] = field(default_factory=lambda: [0, 0, 0])  # hits, predicted, true
+    running: list[tuple[int, float, float, float]] = field(default_factory=list)
+    counts: array = field(default_factory=lambda: array("i"))  # hits, predicted, true per event, flat
+
+    def add(self, predicted: set[str], truth: frozenset[str] | set[str]) -> None:
+        event = (len(predicted & truth), len(predicted), len(truth))
+        self.counts.extend(event)
+        for k in range(3):
+            self.totals[k] += event[k]
+
+    def figures(self) -> dict[str, float]:
+        p, r, f = prf(*self.totals)
+        return {"precision": round(p, 6), "recall": round(r, 6), "f1": round(f, 6)}
+
+
+def _event(
+    started: dict[str, Method], tallies: dict[str, _Tally], point: Point, row: Scenario
+) -> dict[str, list[str]]:
+    """Every method predicts one event, is judged, then learns it; the answers."""
+    answers = {}
+    for name, method in started.items():
+        answer = answers[name] = method.predict_one(point)
+        truth = row.truth_for(answer)
+        tallies[name].add(set(answer), truth)
+        method.learn_one(point, sorted(truth))
+    return answers
 
 
 def replay_rows(
     home: Home,
     rows: Sequence[Scenario],
     *,
-    methods: Sequence[str] = METHODS,
+    methods: Sequence[str] = METHOD_NAMES,
     seed: int = 0,
     points: int = 200,
     joint: bool = False,
@@ -160,54 +198,27 @@ def replay_rows(
     one nearest its answer, as ``eval`` does)."""
     start = time.perf_counter()
     check_size(home, joint=joint)
-    learning = Learned(methods={})
-    if any(m not in BASELINES for m in methods):
-        policy = ensure_policy(home, joint=joint, progress=progress)
-        learning = learn_methods(
-            home, policy, [m for m in methods if m not in BASELINES], seed=seed, progress=progress
-        )
-    learned: dict[str, Any] = {
-        name: OnlineMethod(name, home) if name in BASELINES else learning.methods[name]
-        for name in methods
-        if name in BASELINES or name in learning.methods
-    }
-    for m in learned.values():
-        if isinstance(m, TreeMethod):
-            m.user = USER
+    started, skipped = _start(home, methods, seed=seed, joint=joint, progress=progress)
     every = max(1, len(rows) // points)
-    totals = {name: [0, 0, 0] for name in learned}  # hits, predicted, true
-    running: dict[str, list[tuple[int, float, float, float]]] = {name: [] for name in learned}
-    counts = {name: array("i") for name in learned}  # hits, predicted, true per event, flat
+    tallies = {name: _Tally() for name in started}
     past = RecentPast(home)
     with _predictions_file(predictions) as sink:
         for i, row in enumerate(rows, start=1):
             point = replace(row.point, recent=past.at(row.timestamp, row.context))
-            answers = {}
-            for name, method in learned.items():
-                answer = answers[name] = method.predict_one(point)
-                predicted, truth = set(answer), row.truth_for(answer)
-                event = (len(predicted & truth), len(predicted), len(truth))
-                counts[name].extend(event)
-                t = totals[name]
-                for k in range(3):
-                    t[k] += event[k]
-                _learn(method, point, sorted(truth))
-                if i % every == 0 or i == len(rows):
-                    running[name].append((i, *prf(*t)))
+            answers = _event(started, tallies, point, row)
+            if i % every == 0 or i == len(rows):
+                for tally in tallies.values():
+                    tally.running.append((i, *prf(*tally.totals)))
             past.learn(row.timestamp, row.context, row.truth)
             if sink is not None:
                 sink.write(prediction_line(i, row, answers, home.service_names))
             if progress and i % 1000 == 0:
                 progress(f"{i:,} of {len(rows):,} events")
-    figures = {}
-    for name, t in totals.items():
-        p, r, f = prf(*t)
-        figures[name] = {"precision": round(p, 6), "recall": round(r, 6), "f1": round(f, 6)}
     return ReplayResult(
         events=len(rows),
-        methods=figures,
-        running=running,
+        methods={name: t.figures() for name, t in tallies.items()},
+        running={name: t.running for name, t in tallies.items()},
         seconds=time.perf_counter() - start,
-        skipped=learning.skipped,
-        counts={name: np.frombuffer(c, dtype=np.int32).reshape(-1, 3) for name, c in counts.items()},
+        skipped=skipped,
+        counts={name: np.frombuffer(t.counts, dtype=np.int32).reshape(-1, 3) for name, t in tallies.items()},
     )

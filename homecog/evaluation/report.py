@@ -3,6 +3,7 @@ per-service heat map, the learning curve under corrections)."""
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -26,7 +27,21 @@ def _lead(result: dict[str, Any], name: str) -> str:
     return f" {d['difference']:+.3f} [{d['low']:+.3f}, {d['high']:+.3f}] |"
 
 
-def _plt() -> Any:
+def _methods_table(
+    result: dict[str, Any], columns: list[str], cells: Callable[[dict[str, Any]], str]
+) -> list[str]:
+    """The Markdown table of every method's ``cells`` under ``columns``, and multi's lead over
+    it where the result has one."""
+    versus = "multi_minus" in result
+    head = ["method", *columns, *([VERSUS] if versus else [])]
+    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for name, m in result["methods"].items():
+        lines.append(f"| {name} | {cells(m)} |" + (_lead(result, name) if versus else ""))
+    return lines
+
+
+def pyplot() -> Any:
+    """matplotlib's pyplot, drawing off screen."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -35,9 +50,17 @@ def _plt() -> Any:
     return plt
 
 
+def save_chart(fig: Any, path: Path) -> Path:
+    """Lay a figure out, write it as a PNG and close it; the path."""
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    pyplot().close(fig)
+    return path
+
+
 def methods_chart(report: dict[str, Any], path: Path) -> Path:
     """Grouped bars of precision, recall and F1 per method, beside the paper's Table 9."""
-    plt = _plt()
+    plt = pyplot()
     rows = {
         name: (m["precision"] * 100, m["recall"] * 100, m["f1"] * 100)
         for name, m in report["methods"].items()
@@ -54,15 +77,12 @@ def methods_chart(report: dict[str, Any], path: Path) -> Path:
     ax.set_ylabel("%")
     ax.set_title(f"{report['home']}: {report['scenarios']:,} scenarios, truth {report['truth']}")
     ax.legend(loc="upper center", ncol=3, fontsize=8, frameon=False)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return save_chart(fig, path)
 
 
 def heatmap(report: dict[str, Any], path: Path) -> Path:
     """F1 per service (rows) and method (columns)."""
-    plt = _plt()
+    plt = pyplot()
     methods = list(report["methods"])
     services = list(next(iter(report["methods"].values()))["per_service"])
     values = [[report["methods"][m]["per_service"][s]["f1"] for m in methods] for s in services]
@@ -75,14 +95,11 @@ def heatmap(report: dict[str, Any], path: Path) -> Path:
             ax.text(j, i, f"{v:.2f}", ha="center", va="center", fontsize=7)
     fig.colorbar(im, ax=ax, label="F1")
     ax.set_title("F1 per service")
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return save_chart(fig, path)
 
 
 def curve_chart(curve: list[dict[str, float]], path: Path) -> Path:
-    plt = _plt()
+    plt = pyplot()
     xs = [c["corrections"] for c in curve]
     fig, ax = plt.subplots(figsize=(7, 3.6))
     for key, color in (("precision", "#4C72B0"), ("recall", "#55A868"), ("f1", "#C44E52")):
@@ -92,10 +109,7 @@ def curve_chart(curve: list[dict[str, float]], path: Path) -> Path:
     ax.set_title("The robot's development with use")
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return save_chart(fig, path)
 
 
 def write_report(report: dict[str, Any], folder: Path) -> Path:
@@ -110,20 +124,16 @@ def write_report(report: dict[str, Any], folder: Path) -> Path:
         "Micro precision Σ|p∩t|/Σ|p|, recall Σ|p∩t|/Σ|t|, F1, and the exact-match rate; "
         "then the same averaged over scenarios.",
         "",
-        "| method | precision | recall | F1 | exact | averaged P | averaged R | seconds |",
-        "|---|---|---|---|---|---|---|---|",
+        *_methods_table(
+            report,
+            ["precision", "recall", "F1", "exact", "averaged P", "averaged R", "seconds"],
+            lambda m: (
+                f"{m['precision']:.4f} | {m['recall']:.4f} | {m['f1']:.4f} | {m['exact']:.4f} | "
+                f"{m['averaged']['precision']:.4f} | {m['averaged']['recall']:.4f} | {m['seconds']:.2f}"
+            ),
+        ),
     ]
     versus = "multi_minus" in report
-    if versus:
-        lines[-2] += f" {VERSUS} |"
-        lines[-1] += "---|"
-    for name, m in report["methods"].items():
-        a = m["averaged"]
-        lines.append(
-            f"| {name} | {m['precision']:.4f} | {m['recall']:.4f} | {m['f1']:.4f} | {m['exact']:.4f} | "
-            f"{a['precision']:.4f} | {a['recall']:.4f} | {m['seconds']:.2f} |"
-            + (_lead(report, name) if versus else "")
-        )
     for name, (p, r, f) in PAPER_TABLE9.items():
         lines.append(
             f"| {name}, Table 9 | {p / 100:.4f} | {r / 100:.4f} | {f / 100:.4f} | | | | |"
@@ -155,7 +165,7 @@ def write_report(report: dict[str, Any], folder: Path) -> Path:
 
 def running_chart(result: dict[str, Any], path: Path) -> Path:
     """The running F1 of every method over the stream."""
-    plt = _plt()
+    plt = pyplot()
     fig, ax = plt.subplots(figsize=(7.5, 3.6))
     for name, series in result["running"].items():
         if series:
@@ -165,10 +175,7 @@ def running_chart(result: dict[str, Any], path: Path) -> Path:
     ax.set_title(f"Prequential replay of {result['events']:,} events")
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return save_chart(fig, path)
 
 
 def write_replay_report(result: dict[str, Any], folder: Path, title: str) -> Path:
@@ -179,17 +186,13 @@ def write_replay_report(result: dict[str, Any], folder: Path, title: str) -> Pat
         "",
         f"{result['events']:,} events, each predicted before it was learned.",
         "",
-        "| method | precision | recall | F1 |",
-        "|---|---|---|---|",
+        *_methods_table(
+            result,
+            ["precision", "recall", "F1"],
+            lambda m: f"{m['precision']:.4f} | {m['recall']:.4f} | {m['f1']:.4f}",
+        ),
     ]
-    versus = "multi_minus" in result
-    if versus:
-        lines[-2] += f" {VERSUS} |"
-        lines[-1] += "---|"
-    for k, v in result["methods"].items():
-        row = f"| {k} | {v['precision']:.4f} | {v['recall']:.4f} | {v['f1']:.4f} |"
-        lines.append(row + (_lead(result, k) if versus else ""))
-    if versus:
+    if "multi_minus" in result:
         lines += ["", VERSUS_NOTE.format(over="events")]
     lines += ["", "![running](running.png)", ""]
     path = folder / "replay.md"

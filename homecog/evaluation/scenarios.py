@@ -3,7 +3,7 @@
 A scenario is a full context: a reading for every feature (uniform inside a random bin)
 and a random state for every device. Its ground truth is the set of services that takes
 it to the optimum under a truth home. A scenario is what a row of a scenario file is
-(:class:`~homecog.home.scenario_file.Scenario`, importable from here too); the metrics are
+(:class:`~homecog.home.scenario_file.Scenario`); the metrics are
 :mod:`homecog.evaluation.metrics`'s.
 
 >>> from homecog.home import load_home
@@ -20,8 +20,6 @@ import numpy as np
 from homecog.home.codec import Point, Space, finite_span
 from homecog.home.model import Home
 from homecog.home.scenario_file import Scenario, truth_of
-
-__all__ = ["Scenario", "random_scenarios", "truth_of"]
 
 
 def random_scenarios(home: Home, n: int, *, seed: int = 0, truth: Home | None = None) -> list[Scenario]:

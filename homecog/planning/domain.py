@@ -60,7 +60,7 @@ from homecog.planning.state import HELD, USER
 
 __all__ = [
     "ACTIONS",
-    "METHODS",
+    "METHOD_SCHEMAS",
     "TASKS",
     "make_domain",
     "on_off",
@@ -139,7 +139,7 @@ TASKS: tuple[TaskSchema, ...] = (
 
 # Methods read the state when they are decomposed (left to right), so goto moves from wherever
 # the robot really is; they are tried in this order.
-METHODS: tuple[MethodSchema, ...] = (
+METHOD_SCHEMAS: tuple[MethodSchema, ...] = (
     method("goto", "goto", lets=["(robot-at ?here)"], subtasks=[("move", "?here", "?place")]),
     method("by_iot", "switch", pre=["(iot ?device)"], subtasks=[("switch_iot", "?device", "?setting")]),
     method(
@@ -289,5 +289,5 @@ def tables(home: Home) -> dict[str, Any]:
 def make_domain(home: Home) -> Domain:
     """The HTN domain of a home (its layout, if any, gives places for by-hand switching)."""
     return compile_domain(
-        home.name, ACTIONS, TASKS + service_tasks(home), METHODS + service_methods(home), tables(home)
+        home.name, ACTIONS, TASKS + service_tasks(home), METHOD_SCHEMAS + service_methods(home), tables(home)
     )

@@ -44,7 +44,7 @@ from collections.abc import Callable, Iterable, Sequence
 
 from homecog.errors import PlanningError
 from homecog.home.model import Home
-from homecog.planning.domain import ACTIONS, METHODS, TASKS, service_methods, tables
+from homecog.planning.domain import ACTIONS, METHOD_SCHEMAS, TASKS, service_methods, tables
 from homecog.planning.hddl_names import Names, home_names, identifier, method_names
 from homecog.planning.planner import Task
 from homecog.planning.schema import (
@@ -267,9 +267,9 @@ def _written(home: Home, names: Names) -> tuple[list[str], list[str], dict[str, 
         return name
 
     methods: list[str] = []
-    for m in METHODS:
+    for m in METHOD_SCHEMAS:
         method = _Method(m, _TASKS[m.task], constant)
-        siblings = [x for x in METHODS if x.task == m.task]
+        siblings = [x for x in METHOD_SCHEMAS if x.task == m.task]
         for earlier in siblings[: siblings.index(m)]:
             method.unless(earlier)
         for lines in method.variants(identifier(m.name.replace("_", "-")), names.tasks):

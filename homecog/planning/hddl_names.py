@@ -21,7 +21,7 @@ from dataclasses import dataclass, field
 
 from homecog.errors import PlanningError
 from homecog.home.model import Home
-from homecog.planning.domain import ACTIONS, METHODS, TASKS, service_methods, words
+from homecog.planning.domain import ACTIONS, METHOD_SCHEMAS, TASKS, service_methods, words
 from homecog.planning.schema import PREDICATES, SETTINGS, TYPES, MethodSchema
 from homecog.planning.state import HELD, USER, State
 
@@ -61,7 +61,7 @@ RESERVED = {
     *PREDICATES,
     *(v for names in action_variants().values() for v in names),
     *(t.name for t in TASKS),
-    *(n for m in METHODS for n in method_names(m, identifier(m.name.replace("_", "-")))),
+    *(n for m in METHOD_SCHEMAS for n in method_names(m, identifier(m.name.replace("_", "-")))),
 }
 """Names no constant or service task may take."""
 

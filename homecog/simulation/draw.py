@@ -31,13 +31,24 @@ _ROOM_COLOURS = ["#e8f1fa", "#fbeee0", "#e9f5e6", "#f3e8f5", "#fdf7dc", "#e6f4f4
 _WALL = "#2b2b2b"
 _PLACE = "#555555"
 _ACTION = "#c0392b"
+#: Inches of margin around what is drawn, in the PNG.
+PAD = 0.15
 _LABEL_BOX = {"boxstyle": "round,pad=0.15", "facecolor": "white", "edgecolor": "none", "alpha": 0.75}
 
 
 def draw_trajectory(layout: Layout, result: SimulationResult, path: str | Path, *, dpi: int = 150) -> Path:
     """Write the floor plan, the places, the robot's path coloured by time and the numbered
-    spots where it worked to the PNG file ``path`` (folders made as needed); returns the path."""
+    spots where it worked to the PNG file ``path`` (folders made as needed), cropped to what
+    is drawn and :data:`PAD` inches around it; returns the path."""
     path = Path(path)
+    fig = trajectory_figure(layout, result)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=dpi, bbox_inches="tight", pad_inches=PAD)
+    return path
+
+
+def trajectory_figure(layout: Layout, result: SimulationResult) -> Figure:
+    """The figure :func:`draw_trajectory` writes (its one axes in metres, the colour bar's after it)."""
     w, h = layout.size
     fig = Figure(figsize=(min(16.0, 0.9 * w + 2.5), min(14.0, 0.9 * h)))
     FigureCanvasAgg(fig)
@@ -126,9 +137,7 @@ def draw_trajectory(layout: Layout, result: SimulationResult, path: str | Path, 
             textcoords="offset points",
             **text,
         )
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=dpi, bbox_inches="tight", pad_inches=0.15)
-    return path
+    return fig
 
 
 def _numbers(numbers: list[int]) -> str:

@@ -29,7 +29,7 @@ from homecog.web.models import CORRECTION_ERRORS, ErrorOut
 
 log = logging.getLogger("homecog.web")
 BODY_UNREADABLE = "There was an error parsing the body"  # FastAPI's 400
-METHODS = ("GET", "HEAD", "POST", "PUT", "PATCH", "DELETE", "OPTIONS")
+HTTP_METHODS = ("GET", "HEAD", "POST", "PUT", "PATCH", "DELETE", "OPTIONS")
 
 
 def responses(*codes: int, stream: bool = False) -> dict[int | str, dict[str, Any]]:
@@ -118,7 +118,7 @@ def _allowed(app: FastAPI, request: Request) -> list[str]:
         regex = getattr(route, "path_regex", None)
         if regex is not None and regex.match(request.url.path):
             methods |= set(getattr(route, "methods", None) or ())
-    return [m for m in METHODS if m in methods]
+    return [m for m in HTTP_METHODS if m in methods]
 
 
 def _routes(routes: Iterable[Any]) -> Iterator[Any]:
