@@ -6,7 +6,7 @@ import itertools
 
 import pytest
 
-from homecog.environment.core import solvable_start_states
+from homecog.environment.reachability import solvable_start_states
 from homecog.home.encoding import parse_hardware_code
 
 DEVICES = ["window", "curtain", "tv_living", "tv_bedroom", "ac_living", "ac_bedroom", "lamp", "ceiling_light"]

@@ -173,22 +173,10 @@ def run_episodes(
     ``firsts`` is not empty, episode ``e`` begins with service ``firsts[e]``, the policy choosing
     from the second step on (exploring starts over states and services).
     """
-    (
-        n_devices,
-        need_count,
-        offsets,
-        care,
-        want,
-        need_pos,
-        set_mask,
-        set_val,
-        prohibited_ctx,
-        rule_start,
-        rule_ctx,
-        rule_mask,
-        rule_val,
-        w,
-    ) = t
+    n_devices, need_count, offsets, care, want = t.n_devices, t.need_count, t.offsets, t.care, t.want
+    need_pos, set_mask, set_val, w = t.need_pos, t.set_mask, t.set_val, t.weights
+    prohibited_ctx, rule_start, rule_ctx = t.prohibited_ctx, t.rule_start, t.rule_ctx
+    rule_mask, rule_val = t.rule_mask, t.rule_val
     w_terminal, w_progress, w_prohibited, m = w[0], w[1], w[2], w[3]
     n_contexts = len(need_count)
     n_h = 1 << n_devices
