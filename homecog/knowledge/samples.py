@@ -54,7 +54,7 @@ from homecog.environment.core import Core
 from homecog.environment.kernels import greedy_walk
 from homecog.environment.tables import Tables
 from homecog.home.classes import Classes, group_classes
-from homecog.home.codec import Point, Space, finite_span
+from homecog.home.codec import Point, Space, reading_in_bin
 from homecog.home.groups import Group, project
 from homecog.home.model import Home
 from homecog.knowledge.relevance import relevance, sufficient_masks
@@ -210,13 +210,7 @@ def draw_readings(space: Space, codes: np.ndarray, rng: np.random.Generator) -> 
     for j, dim in enumerate(space.dims):
         if not dim.numeric:
             continue
-        feature = space.home.features[j]
-        bounds = np.array(finite_span(feature.bins)).reshape(-1, 2)  # type: ignore[arg-type]
-        low, high = bounds[codes[:, j], 0], bounds[codes[:, j], 1]
-        if dim.kind == "clock":  # a bin wrapping midnight: draw on the unwrapped span
-            high = np.where(high <= low, high + 24, high)
-        values = np.maximum(np.floor((low + (high - low) * rng.random(n_points)) * 100) / 100, low)
-        numeric[:, j] = values % 24 if dim.kind == "clock" else values
+        numeric[:, j] = reading_in_bin(space.home.features[j], codes[:, j], rng.random(n_points))
     return numeric
 
 
