@@ -163,7 +163,7 @@ def test_wrong_and_unreachable_database_urls(capsys, tmp_path):
     for url, message in [
         ("nosuchdb://x", "not a database URL"),
         ("postgresql+psycopg://postgres@127.0.0.1:1/x", "cannot use the database"),
-        (f"sqlite:///{tmp_path / 'file.txt' / 'x.sqlite'}", "--db sqlite:///"),
+        (f"sqlite:///{tmp_path / 'file.txt' / 'x.sqlite'}", "database sqlite:///"),
     ]:
         if url.startswith("sqlite"):
             (tmp_path / "file.txt").write_text("not a directory")

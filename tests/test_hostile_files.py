@@ -93,7 +93,7 @@ def test_nothing_is_written_outside_the_data_directory(tmp_path):
             "--db",
             f"sqlite:///{nowhere}/k.sqlite",
         ],
-        f"--db sqlite:///{nowhere}/k.sqlite: no folder {nowhere}; make it first",
+        f"database sqlite:///{nowhere}/k.sqlite: no folder {nowhere}; make it first",
         env,
     )
     assert sorted(p.name for p in tmp_path.iterdir()) == ["homes"] and not (tmp_path / "no").exists()

@@ -393,7 +393,7 @@ def test_a_database_that_fails_stops_neither_the_robot_nor_an_undo_for_good(stor
     real = runtime.store.correct
 
     def down(*args, **kwargs):
-        raise StoreError("--db sqlite:///k.sqlite: cannot use the database: disk I/O error")
+        raise StoreError("database sqlite:///k.sqlite: cannot use the database: disk I/O error")
 
     monkeypatch.setattr(runtime.store, "correct", down)
     runtime.source.set_context({"activity": "relax"})

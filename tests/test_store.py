@@ -268,7 +268,7 @@ def test_bad_url_is_a_one_line_store_error(url: str, studio: Home) -> None:
         Store(url, studio)
     assert time.monotonic() - start < 15
     message = str(info.value)
-    assert message.startswith("--db ")
+    assert message.startswith("database ")
     assert "\n" not in message
     assert "Traceback" not in message
 

@@ -48,7 +48,7 @@ def _outage_is_a_503(client, runtime, reason: str) -> None:
     r = client.post("/api/corrections", json={"context": WORK, "want": ["RadioOn"], "user": "kim"})
     assert r.status_code == 503, r.text
     detail = r.json()["detail"]
-    assert detail.startswith("the knowledge database cannot be used: --db ") and reason in detail
+    assert detail.startswith("the knowledge database cannot be used: database ") and reason in detail
     assert "Traceback" not in detail
     r = client.get("/api/history")
     assert r.status_code == 503 and r.json()["detail"].startswith("the knowledge database cannot be used")

@@ -116,7 +116,7 @@ class Store(StoreLog):
             row = conn.execute(select(HomeRow.content_hash).where(HomeRow.name == self.home.name)).first()
             if row is not None and row.content_hash != self.home.content_hash:
                 raise StoreError(
-                    f"--db {redact(self.url)}: holds the knowledge of home '{self.home.name}' "
+                    f"database {redact(self.url)}: holds the knowledge of home '{self.home.name}' "
                     f"({row.content_hash[:12]}), not of this file's home '{self.home.name}' "
                     f"({self.home.content_hash[:12]}); name the home otherwise or use another database"
                 )
@@ -177,7 +177,7 @@ class Store(StoreLog):
         with self._tx() as conn:
             home_row = conn.execute(select(HomeRow).where(HomeRow.name == h)).first()
             if home_row is None or home_row.built_at is None:
-                raise StoreError(f"--db {redact(self.url)}: no knowledge tree yet; run homecog build")
+                raise StoreError(f"database {redact(self.url)}: no knowledge tree yet; run homecog build")
             counters = json.loads(home_row.state or "{}")
             state = TreeState(
                 mode=home_row.mode,
@@ -210,7 +210,7 @@ class Store(StoreLog):
             try:
                 tree = IHDRTree.from_state(self.home, state)
             except (ValueError, KeyError):
-                raise StoreError(f"--db {redact(self.url)}: the stored tree does not fit the home") from None
+                raise StoreError(f"database {redact(self.url)}: the stored tree does not fit the home") from None
             self._versions = {}
             for row in conn.execute(select(UserRow.name, UserRow.version).where(UserRow.home == h)):
                 self._versions[row.name] = row.version
