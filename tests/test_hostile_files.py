@@ -172,7 +172,7 @@ def test_a_malformed_context_says_which_entry():
 @pytest.fixture
 def built_db(tmp_path, studio, studio_build) -> str:
     url = f"sqlite:///{tmp_path / 'k.sqlite'}"
-    store = Store(url, studio)
+    store = Store.open(url, studio)
     try:
         build(studio, store, q_path=studio_build)
     finally:
@@ -190,7 +190,7 @@ def events_file(path: Path, users: list[str]) -> Path:
 
 
 def experiences(url: str, studio) -> int:
-    store = Store(url, studio)
+    store = Store.open(url, studio)
     try:
         return store.experience_count()
     finally:

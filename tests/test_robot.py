@@ -42,7 +42,7 @@ RELAX = {**WORK, "activity": "relax", "light": "300"}
 def stored(tmp_path_factory, studio_build):
     home = load_home_text(STUDIO, "studio.yaml")
     url = f"sqlite:///{tmp_path_factory.mktemp('robot') / 'knowledge.sqlite'}"
-    store = Store(url, home)
+    store = Store.open(url, home)
     build(home, store, q_path=studio_build)
     store.close()
     return home, url
@@ -54,7 +54,7 @@ def make_runtime(stored, tmp_path, home=None):
     home = home or base
     copy = tmp_path / "k.sqlite"
     copy.write_bytes(Path(url.removeprefix("sqlite:///")).read_bytes())
-    store = Store(f"sqlite:///{copy}", home, replace=home is not base)
+    store = Store.open(f"sqlite:///{copy}", home, replace=home is not base)
     source = ManualSource(home)
     source.set_context(WORK)
     return Runtime(home=home, store=store, tree=store.load_tree(), source=source)

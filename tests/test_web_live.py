@@ -37,7 +37,7 @@ def studio(tmp_path_factory):
 
 def _client(home_path, url, **settings):
     home = load_home(home_path)
-    store = Store(url, home)
+    store = Store.open(url, home)
     runtime = Runtime(home=home, store=store, tree=store.load_tree(), source=ManualSource(home))
     return TestClient(create_app(runtime, Settings(**settings))), runtime
 
@@ -83,7 +83,7 @@ def test_a_postgresql_database_dropped_under_the_server_is_a_503(studio):
     home_path, _ = studio
     with fresh_database("postgresql") as url:
         home = load_home(home_path)
-        store = Store(url, home)
+        store = Store.open(url, home)
         build(home, store)
         store.close()
         client, runtime = _client(home_path, url)

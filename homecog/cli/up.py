@@ -98,8 +98,9 @@ def up(
 
     from homecog.context.manual import ManualSource
     from homecog.context.simulated import SimulatedHome
+    from homecog.knowledge.database import redact
     from homecog.knowledge.pipeline import open_tree
-    from homecog.knowledge.store import Store, redact
+    from homecog.knowledge.store import Store
     from homecog.robot.runtime import Runtime
     from homecog.web.main import create_app
     from homecog.web.serving import run
@@ -150,7 +151,7 @@ def up(
             ha_source = HomeAssistantSource(h, home_assistant, token=token_ha).start()
             stack.callback(ha_source.stop)
             say(f"context from Home Assistant {ha_source.version} at {home_assistant}")
-        store = Store(db, h)
+        store = Store.open(db, h)
         stack.callback(store.close)
         tree = open_tree(h, store, progress=lambda m: say(m, style="dim"))
         source: Any = (

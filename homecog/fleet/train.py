@@ -22,8 +22,8 @@ from pathlib import Path
 
 from homecog.errors import FleetError, HomecogError, HomeFileError, StoreError
 from homecog.home.loader import load_home_text
-from homecog.knowledge.database import db_message, make_engine, redact
-from homecog.knowledge.store import Store, migrate
+from homecog.knowledge.database import db_message, make_engine, migrate, redact
+from homecog.knowledge.store import Store
 from homecog.knowledge.store_log import stored_homes
 from homecog.text_files import HOME_FILE_LIMIT, read_text
 
@@ -74,7 +74,7 @@ def learn_home(path: str, url: str, seed: int = 0) -> HomeResult:
         trained = train_policy(home, SarsaConfig(seed=seed), workers=1)
         with tempfile.TemporaryDirectory() as tmp:
             policy = trained.policy.save(Path(tmp) / "q.npz").read_bytes()
-        store = Store(url, home, replace=True, engine=_engine(url))
+        store = Store.open(url, home, replace=True, engine=_engine(url))
         built = build_from(
             home, trained.policy, store, start=start, seed=seed, source=text, policy_file=policy
         )

@@ -8,7 +8,7 @@ One query, on the index of ``(kind, user, id)``, reads the latest ``limit`` of t
 
 >>> from homecog.home import load_home
 >>> from homecog.knowledge.store import Store
->>> correction_history(Store("sqlite://", load_home("paper"))).total
+>>> correction_history(Store.open("sqlite://", load_home("paper"))).total
 0
 """
 
