@@ -223,6 +223,37 @@ def run_episodes(
 NO_STARTS = np.zeros(0, dtype=np.int64)
 
 
+def run_table(
+    core: Core,
+    table: QTable,
+    config: SarsaConfig,
+    episodes: int,
+    t0: int,
+    rng: np.ndarray,
+    starts: np.ndarray = NO_STARTS,
+    firsts: np.ndarray = NO_STARTS,
+) -> int:
+    """:func:`run_episodes` on a Q table with the hyperparameters of ``config``; the steps taken."""
+    c = config
+    return int(
+        run_episodes(
+            core.tables,
+            table.q,
+            table.tried,
+            episodes,
+            t0,
+            c.alpha,
+            c.gamma,
+            c.epsilon_c,
+            c.epsilon_min,
+            c.max_steps,
+            rng,
+            starts,
+            firsts,
+        )
+    )
+
+
 def seed_rng(seed: int) -> np.ndarray:
     """Generator state for a seed (never zero, which xorshift cannot leave)."""
     x = (seed * 2654435761 + 0x9E3779B9) & 0xFFFFFFFF
@@ -294,23 +325,7 @@ def train(
     steps = done = 0
     while done < config.episodes:
         n = min(chunk, config.episodes - done)
-        steps += int(
-            run_episodes(
-                core.tables,
-                q_table.q,
-                q_table.tried,
-                n,
-                q_table.episodes + done,
-                config.alpha,
-                config.gamma,
-                config.epsilon_c,
-                config.epsilon_min,
-                config.max_steps,
-                rng,
-                NO_STARTS,
-                NO_STARTS,
-            )
-        )
+        steps += run_table(core, q_table, config, n, q_table.episodes + done, rng)
         done += n
         if progress is not None:
             progress(done, config.episodes)
