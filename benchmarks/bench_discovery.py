@@ -42,7 +42,7 @@ sys.path.insert(0, str(ROOT / "tests"))
 from home_assistant import VERSION, HomeAssistant, StateChanges, enable_mqtt, hass_binary  # noqa: E402
 
 from homecog.context.manual import ManualSource  # noqa: E402
-from homecog.context.mqtt import MqttPublisher  # noqa: E402
+from homecog.context.mqtt_publisher import MqttPublisher  # noqa: E402
 from homecog.home import load_home  # noqa: E402
 from homecog.knowledge.pipeline import build  # noqa: E402
 from homecog.knowledge.store import Store  # noqa: E402

@@ -19,7 +19,7 @@ from pathlib import Path
 
 import pytest
 
-from homecog.context.mqtt import parse_url
+from homecog.context.mqtt_broker import parse_url
 
 START_TIMEOUT = 10.0  # seconds for a started mosquitto to answer
 

@@ -130,7 +130,7 @@ BAD = [
     ),
     pytest.param(
         ["cognize", "--context", "time"],
-        "--context: 'time' is malformed: expected name=value",
+        "context: 'time' is malformed: expected name=value",
         id="not-name-value",
     ),
     pytest.param(

@@ -33,7 +33,8 @@ from paho.mqtt.enums import CallbackAPIVersion
 
 from homecog.context.ha_discovery import HomeAssistantDiscovery
 from homecog.context.manual import ManualSource
-from homecog.context.mqtt import MqttPublisher, parse_url
+from homecog.context.mqtt_broker import parse_url
+from homecog.context.mqtt_publisher import MqttPublisher
 from homecog.home import Home, load_home
 from homecog.knowledge.history import correction_history
 from homecog.knowledge.pipeline import build

@@ -23,7 +23,8 @@ from pathlib import Path
 import pytest
 from home_assistant import VERSION, HomeAssistant, free_port, running_home_assistant
 
-from homecog.context.home_assistant import MAX_RECONNECT_DELAY, HomeAssistantSource
+from homecog.context.ha_connection import MAX_RECONNECT_DELAY
+from homecog.context.home_assistant import HomeAssistantSource
 from homecog.errors import ContextError, HomeAssistantError
 from homecog.home import load_home, load_home_text
 

@@ -19,7 +19,7 @@ import yaml
 
 from homecog.errors import ContextError, HomeFileError
 from homecog.home import Home, load_home, load_home_text
-from homecog.home.loader import resolve_home
+from homecog.home.home_file import resolve_home
 
 HOMES = Path(__file__).parent / "homes"
 

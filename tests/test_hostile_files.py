@@ -165,7 +165,7 @@ def test_ten_thousand_devices_print_their_counts_without_overflow(tmp_path):
 
 
 def test_a_malformed_context_says_which_entry():
-    one_line_error(["cognize", "--context", ",,,==,"], "--context: '==' is malformed: expected name=value")
+    one_line_error(["cognize", "--context", ",,,==,"], "context: '==' is malformed: expected name=value")
 
 
 # -- event files and users -----------------------------------------------------------------------

@@ -36,7 +36,9 @@ from paho.mqtt.enums import CallbackAPIVersion
 
 from homecog.context import DeviceChange
 from homecog.context.home_assistant import HomeAssistantSource
-from homecog.context.mqtt import MqttSource, command_topic, parse_url, publish_context, state_topic
+from homecog.context.mqtt_broker import command_topic, parse_url, state_topic
+from homecog.context.mqtt_publisher import publish_context
+from homecog.context.mqtt_source import MqttSource
 from homecog.home import load_home, load_home_text
 from homecog.home.model import Home
 from homecog.knowledge.history import Correction, correction_history

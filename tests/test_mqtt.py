@@ -21,17 +21,10 @@ import pytest
 from brokers import mosquitto, mqtt_broker, start_mosquitto
 from paho.mqtt.enums import CallbackAPIVersion
 
-from homecog.context.mqtt import (
-    MqttError,
-    MqttPublisher,
-    MqttSource,
-    command_topic,
-    context_topic,
-    parse_url,
-    publish_context,
-    state_topic,
-)
-from homecog.errors import ContextError, HomecogError
+from homecog.context.mqtt_broker import command_topic, context_topic, parse_url, state_topic
+from homecog.context.mqtt_publisher import MqttPublisher, publish_context
+from homecog.context.mqtt_source import MqttSource
+from homecog.errors import ContextError, HomecogError, MqttError
 from homecog.home import load_home
 from homecog.home.codec import Space
 from homecog.home.model import Home

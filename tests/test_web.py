@@ -18,9 +18,8 @@ from homecog.knowledge.pipeline import build
 from homecog.knowledge.store import Store
 from homecog.planning.acting import Failure
 from homecog.robot.runtime import Runtime
-from homecog.web.fastpath import MAX_BODY
 from homecog.web.main import create_app
-from homecog.web.settings import Settings
+from homecog.web.settings import MAX_BODY, Settings
 
 STUDIO = Path(__file__).parent / "homes" / "studio.yaml"
 WORK = {

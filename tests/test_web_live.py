@@ -197,7 +197,7 @@ def test_homecog_up_takes_a_brokers_retained_states_that_come_at_once(studio, tm
     import uvicorn
 
     from homecog.cli.main import main
-    from homecog.context import mqtt
+    from homecog.context import mqtt_source
     from homecog.robot.runtime import Runtime as RuntimeClass
 
     home_path, db = studio
@@ -214,11 +214,11 @@ def test_homecog_up_takes_a_brokers_retained_states_that_come_at_once(studio, tm
         self.update({k: str(v) for k, v in WORK.items()}, topic="retained")
         return self
 
-    monkeypatch.setattr(mqtt.MqttSource, "start", start)
-    monkeypatch.setattr(mqtt.MqttSource, "stop", lambda self: None)
+    monkeypatch.setattr(mqtt_source.MqttSource, "start", start)
+    monkeypatch.setattr(mqtt_source.MqttSource, "stop", lambda self: None)
     monkeypatch.setattr(uvicorn, "run", lambda app, **kw: None)
     failures: list[str] = []
-    monkeypatch.setattr(mqtt.log, "exception", lambda message, *a: failures.append(message))
+    monkeypatch.setattr(mqtt_source.log, "exception", lambda message, *a: failures.append(message))
     args = ["up", "--home", str(home_path), "--db", url, "--mqtt", "mqtt://127.0.0.1:1", "--port", "8999"]
     assert main(args) == 0
     assert failures == []

@@ -13,7 +13,6 @@ from homecog.cli.options import (
     DbOption,
     HomeOption,
     JsonOption,
-    UsageProblemError,
     check_readable,
     check_writable,
     method_names,
@@ -21,6 +20,7 @@ from homecog.cli.options import (
 )
 from homecog.cli.output import emit_json, stdout
 from homecog.cli.render import days_table, eval_table, replay_table
+from homecog.errors import UsageProblemError
 from homecog.home import load_home
 
 

@@ -27,7 +27,7 @@ def export_pyrobosim(
 ) -> None:
     """Write the home's floor plan as a pyrobosim world: rooms as polygons, doors as hallways,
     places as locations, the objects on them, and the robot at its start."""
-    from homecog.cli.options import UsageProblemError
+    from homecog.errors import UsageProblemError
     from homecog.simulation.pyrobosim_world import PLANNERS, pyrobosim_world
 
     if planner not in PLANNERS:

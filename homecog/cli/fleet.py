@@ -8,8 +8,9 @@ from typing import Annotated
 
 import typer
 
-from homecog.cli.options import HostOption, JsonOption, PortOption, UsageProblemError
+from homecog.cli.options import HostOption, JsonOption, PortOption, TokenOption, server_settings, url_host
 from homecog.cli.output import emit_json, stderr, stdout
+from homecog.errors import UsageProblemError
 
 FleetDb = Annotated[
     str | None,
@@ -106,37 +107,25 @@ def serve(
     db: FleetDb = None,
     host: HostOption = "127.0.0.1",
     port: PortOption = 8000,
-    token: Annotated[
-        str | None,
-        typer.Option(
-            help="Token every /api request needs (default: $HOMECOG_TOKEN; generated off 127.0.0.1)."
-        ),
-    ] = None,
+    token: TokenOption = None,
     cache: Annotated[
         int, typer.Option(min=1, max=1_000_000, help="Homes' trees kept in memory at most.")
     ] = 128,
 ) -> None:
     """Serve the HTTP API of every home of the database (/api/homes/{home}/...), stateless."""
     import gc
-    import secrets
 
-    from homecog.cli.up import LOCAL_HOSTS
     from homecog.fleet.serve import Fleet, FleetApp
     from homecog.knowledge.database import redact
     from homecog.web.serving import run
-    from homecog.web.settings import Settings
 
     url = _db(db)
-    settings = Settings.of(token=token)
-    if host not in LOCAL_HOSTS and settings.token is None:
-        settings = settings.model_copy(update={"token": secrets.token_urlsafe(24)})
-        stdout.print(f"token for every /api request (shown once): {settings.token}")
+    settings = server_settings(token, host)
     fleet = Fleet(url, settings, cache=cache)
     try:
         names = fleet.names()
-        shown = host if ":" not in host else f"[{host}]"
         stdout.print(f"knowledge: {redact(url)} ({len(names)} homes)", style="dim")
-        stdout.print(f"homecog serves {len(names)} homes: http://{shown}:{port}/api/homes")
+        stdout.print(f"homecog serves {len(names)} homes: http://{url_host(host)}:{port}/api/homes")
         gc.freeze()
         run(FleetApp(fleet), settings, host=host, port=port)
     finally:

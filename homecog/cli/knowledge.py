@@ -15,12 +15,12 @@ from homecog.cli.options import (
     DbOption,
     HomeOption,
     JsonOption,
-    UsageProblemError,
     UserOption,
     check_readable,
     status,
 )
 from homecog.cli.output import emit_json, stdout
+from homecog.errors import UsageProblemError
 from homecog.home import Home, load_home
 
 

@@ -12,8 +12,9 @@ from typing import Annotated
 
 import typer
 
-from homecog.cli.options import HomeOption, JsonOption, UsageProblemError, check_readable, check_writable
+from homecog.cli.options import HomeOption, JsonOption, check_readable, check_writable
 from homecog.cli.output import emit_json, stdout
+from homecog.errors import UsageProblemError
 from homecog.evaluation.log_events import LogEvents
 from homecog.home import load_home
 

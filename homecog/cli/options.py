@@ -4,19 +4,22 @@ from __future__ import annotations
 
 import tempfile
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
 import typer
 
 from homecog.errors import UsageProblemError
 from homecog.names import user_name_problem
 
+if TYPE_CHECKING:
+    from homecog.web.settings import Settings
+
 __all__ = [
     "ContextOption",
     "DbOption",
     "HomeOption",
     "JsonOption",
-    "UsageProblemError",
+    "TokenOption",
     "UserOption",
     "check_readable",
     "check_writable",
@@ -50,6 +53,38 @@ UserOption = Annotated[
 ]
 HostOption = Annotated[str, typer.Option(help="Address to serve on; any but 127.0.0.1 needs a token.")]
 PortOption = Annotated[int, typer.Option(min=1, max=65535, help="Port to serve on.")]
+TokenOption = Annotated[
+    str | None,
+    typer.Option(
+        help="Token every /api request needs (default: $HOMECOG_TOKEN; none on 127.0.0.1, "
+        "else generated and printed once)."
+    ),
+]
+LOCAL_HOSTS = ("127.0.0.1", "localhost", "::1")
+
+
+def server_settings(token: str | None, host: str) -> Settings:
+    """The settings of a server on ``host``: ``token`` (or $HOMECOG_TOKEN; refused unless 8 or
+    more ASCII characters), one generated and printed once when there is none off loopback."""
+    import secrets
+
+    from homecog.cli.output import stdout
+    from homecog.web.settings import Settings
+
+    settings = Settings.of(token=token)
+    if host not in LOCAL_HOSTS and settings.token is None:
+        settings = settings.model_copy(update={"token": secrets.token_urlsafe(24)})
+        stdout.print(f"token for every /api request (shown once): {settings.token}")
+    return settings
+
+
+def url_host(host: str) -> str:
+    """``host`` as a URL writes it (an IPv6 address in brackets).
+
+    >>> url_host("127.0.0.1"), url_host("::1")
+    ('127.0.0.1', '[::1]')
+    """
+    return host if ":" not in host else f"[{host}]"
 
 
 def check_readable(path: Path, option: str, what: str, limit: int | None = None) -> None:

@@ -11,10 +11,10 @@ import typer
 from homecog.cli.options import (
     HomeOption,
     JsonOption,
-    UsageProblemError,
     check_writable,
 )
 from homecog.cli.output import emit_json, stdout
+from homecog.errors import UsageProblemError
 from homecog.home import Home, load_home
 
 ServicesOption = Annotated[

@@ -5,6 +5,8 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import os
+from collections.abc import Callable
+from dataclasses import dataclass
 from typing import Annotated, Any
 
 import typer
@@ -14,13 +16,15 @@ from homecog.cli.options import (
     HomeOption,
     HostOption,
     PortOption,
-    UsageProblemError,
+    TokenOption,
+    server_settings,
+    url_host,
 )
 from homecog.cli.output import stdout
+from homecog.errors import UsageProblemError
 from homecog.home import load_home
 from homecog.home.household import Household
-
-LOCAL_HOSTS = ("127.0.0.1", "localhost", "::1")
+from homecog.home.model import Home
 
 
 def up(
@@ -28,13 +32,7 @@ def up(
     db: DbOption = None,
     host: HostOption = "127.0.0.1",
     port: PortOption = 8000,
-    token: Annotated[
-        str | None,
-        typer.Option(
-            help="Token every /api request needs (default: $HOMECOG_TOKEN; none on 127.0.0.1, "
-            "else generated and printed once)."
-        ),
-    ] = None,
+    token: TokenOption = None,
     speed: Annotated[
         float,
         typer.Option(
@@ -94,75 +92,39 @@ def up(
     """Start the robot: train or reuse the Q table, build or reuse the tree, serve the HMI."""
     import functools
     import gc
-    import secrets
 
-    from homecog.context.manual import ManualSource
-    from homecog.context.simulated import SimulatedHome
     from homecog.knowledge.database import redact
     from homecog.knowledge.pipeline import open_tree
     from homecog.knowledge.store import Store
     from homecog.robot.runtime import Runtime
     from homecog.web.main import create_app
     from homecog.web.serving import run
-    from homecog.web.settings import Settings
 
-    if publish is not None and (mqtt is not None or speed == 0):
-        raise UsageProblemError("--publish mirrors the simulated home; it needs --speed > 0 and no --mqtt")
-    if home_assistant is not None and (mqtt is not None or publish is not None):
-        raise UsageProblemError(
-            "--home-assistant is the home's context; it goes with neither --mqtt nor --publish"
-        )
-    if household is not None and (mqtt is not None or home_assistant is not None or speed == 0):
-        raise UsageProblemError("--household lives in the simulated home; it needs --speed > 0, no broker")
-    from homecog.simulation.bodies import BODIES
-
-    if robot not in BODIES:
-        raise UsageProblemError(f"--robot: unknown body {robot!r}; expected one of {', '.join(BODIES)}")
-    if robot != "builtin" and (mqtt is not None or home_assistant is not None):
-        raise UsageProblemError(
-            f"--robot {robot} is the simulated home's robot; in a home on a broker or Home Assistant "
-            "the robot switches by IoT"
-        )
-    if robot == "pyrobosim":  # before any training: the extra missing is said at once
-        from homecog.simulation.pyrobosim_body import require_pyrobosim
-
-        require_pyrobosim()
+    _check_flags(
+        mqtt=mqtt,
+        home_assistant=home_assistant,
+        publish=publish,
+        household=household,
+        speed=speed,
+        robot=robot,
+    )
+    outside = _outside(home_assistant=home_assistant, mqtt=mqtt)
     h = load_home(home)
     people = household_settings(h.household, undo_window, hold, observed_weight, undo_weight)
-    truth = load_home(household) if household is not None else None
-    if truth is not None:
-        from homecog.home.content import is_compatible
-
-        problems = is_compatible(truth, h)
-        if problems:
-            raise UsageProblemError(
-                f"--household {truth.source}: not compatible with home '{h.name}': {'; '.join(problems)}"
-            )
-    settings = Settings.of(token=token)  # or $HOMECOG_TOKEN; refused unless 8 or more ASCII characters
-    if host not in LOCAL_HOSTS and settings.token is None:
-        settings = settings.model_copy(update={"token": secrets.token_urlsafe(24)})
-        stdout.print(f"token for every /api request (shown once): {settings.token}")
+    truth = _household(household, h)
+    settings = server_settings(token, host)
     say = stdout.print
     with contextlib.ExitStack() as stack:
-        if home_assistant is not None:  # first: a wrong URL, token or entity fails before any training
-            from homecog.context.home_assistant import HomeAssistantSource
-
-            token_ha = ha_token or os.environ.get("HOMECOG_HA_TOKEN")
-            ha_source = HomeAssistantSource(h, home_assistant, token=token_ha).start()
-            stack.callback(ha_source.stop)
-            say(f"context from Home Assistant {ha_source.version} at {home_assistant}")
+        early = outside is not None and outside.source.early
+        if early:  # a wrong URL, token or entity fails before any training
+            source = _start(outside, outside.source.make(h, outside.url, ha_token), h, stack)
         store = Store.open(db, h)
         stack.callback(store.close)
         tree = open_tree(h, store, progress=lambda m: say(m, style="dim"))
-        source: Any = (
-            SimulatedHome(h, speed=speed, routine_switches=truth is None) if speed > 0 else ManualSource(h)
-        )
-        if mqtt is not None:
-            from homecog.context.mqtt import MqttSource
-
-            source = MqttSource(h, mqtt)
-        if home_assistant is not None:
-            source = ha_source
+        if outside is None:
+            source = _simulated(h, speed, truth)
+        elif not early:
+            source = outside.source.make(h, outside.url, ha_token)
         runtime = Runtime(home=h, store=store, tree=tree, source=source, household=people, robot=robot)
         if runtime.actor.body is not None:
             say(
@@ -175,27 +137,12 @@ def up(
             living = SimulatedHousehold(truth, source, undo_window=people.undo_window)
             runtime.after_tick.append(living.step)
             say(f"a household of {truth.name}'s wishes lives in the simulated home")
-        if mqtt is not None:  # started once the runtime exists: a retained state comes at once
+        if outside is not None:  # once the runtime exists: a retained state comes at once
             source.on_change = functools.partial(runtime.publish, "context")
-            source.start()
-            stack.callback(source.stop)
-            say(
-                f"context from {mqtt}: topics homecog/{h.name}/state/<name>, "
-                f"commands to homecog/{h.name}/command/<device>"
-            )
-        if home_assistant is not None:  # running since before the training: its changes go on from here
-            ha_source.on_change = functools.partial(runtime.publish, "context")
+            if not early:
+                _start(outside, source, h, stack)
         if publish is not None:
-            from homecog.context.mqtt import MqttPublisher
-
-            mirror = MqttPublisher(h, publish, on_command=runtime.switch).start()
-            stack.callback(mirror.stop)
-            mirror.publish(source.snapshot(), everything=True)
-            runtime.watchers.append(mirror.publish)
-            say(
-                f"the simulated home on {publish}: states to homecog/{h.name}/state/<name>, "
-                f"commands from homecog/{h.name}/command/<device>"
-            )
+            _mirror(h, publish, source, runtime, stack)
         broker = mqtt or publish
         if broker is not None:  # the robot and the home in Home Assistant, gone when it stops
             from homecog.robot.announce import announce
@@ -203,11 +150,152 @@ def up(
             stack.callback(announce(runtime, broker).start(wait=False).stop)
             say(f"in Home Assistant by MQTT discovery on {broker}: the robot's services, last action, undo")
         say(f"knowledge: {redact(store.url)} ({store.experience_count():,} experiences)", style="dim")
-        say(f"homecog is up: http://{host if ':' not in host else f'[{host}]'}:{port}")
-        live = speed if mqtt is None and home_assistant is None else 1.0  # a real home's own clock
+        say(f"homecog is up: http://{url_host(host)}:{port}")
+        live = speed if outside is None else 1.0  # a real home's own clock
         gc.freeze()  # the tree lives as long as the server: keep the collector from walking it
         settings = settings.model_copy(update={"live": live})
         run(create_app(runtime, settings), settings, host=host, port=port)
+
+
+@dataclass(frozen=True)
+class OutsideSource:
+    """A home's context from outside the simulator, as a flag of ``homecog up`` names it."""
+
+    make: Callable[[Home, str, str | None], Any]  # (home, URL, Home Assistant token) → the source
+    early: bool  # started before the training (else once the runtime exists)
+    said: Callable[[Home, str, Any], str]  # what is printed once it is started
+
+
+@dataclass(frozen=True)
+class Outside:
+    """The outside source chosen, and its URL."""
+
+    source: OutsideSource
+    url: str
+
+
+def _home_assistant(home: Home, url: str, ha_token: str | None) -> Any:
+    from homecog.context.ha_client import TOKEN_HELP
+    from homecog.context.home_assistant import HomeAssistantSource
+    from homecog.errors import HomeAssistantError
+
+    token = ha_token or os.environ.get("HOMECOG_HA_TOKEN")
+    if not token and home.home_assistant is not None:  # the flag's words; the source's say no flag
+        raise HomeAssistantError(
+            f"no token for Home Assistant at {url}: set $HOMECOG_HA_TOKEN or give --ha-token, " + TOKEN_HELP
+        )
+    return HomeAssistantSource(home, url, token=token)
+
+
+def _mqtt(home: Home, url: str, ha_token: str | None) -> Any:
+    from homecog.context.mqtt_source import MqttSource
+
+    return MqttSource(home, url)
+
+
+#: The option naming each outside source → how it is made, started and said.
+OUTSIDE = {
+    "home_assistant": OutsideSource(
+        _home_assistant,
+        early=True,
+        said=lambda home, url, source: f"context from Home Assistant {source.version} at {url}",
+    ),
+    "mqtt": OutsideSource(
+        _mqtt,
+        early=False,
+        said=lambda home, url, source: (
+            f"context from {url}: topics homecog/{home.name}/state/<name>, "
+            f"commands to homecog/{home.name}/command/<device>"
+        ),
+    ),
+}
+
+
+def _outside(**urls: str | None) -> Outside | None:
+    """The outside source an option names (at most one: :func:`_check_flags`), or None: the
+    simulated home."""
+    return next((Outside(OUTSIDE[option], url) for option, url in urls.items() if url is not None), None)
+
+
+def _check_flags(
+    *,
+    mqtt: str | None,
+    home_assistant: str | None,
+    publish: str | None,
+    household: str | None,
+    speed: float,
+    robot: str,
+) -> None:
+    """The flags that go together, checked before any work."""
+    from homecog.simulation.bodies import BODIES
+
+    if publish is not None and (mqtt is not None or speed == 0):
+        raise UsageProblemError("--publish mirrors the simulated home; it needs --speed > 0 and no --mqtt")
+    if home_assistant is not None and (mqtt is not None or publish is not None):
+        raise UsageProblemError(
+            "--home-assistant is the home's context; it goes with neither --mqtt nor --publish"
+        )
+    if household is not None and (mqtt is not None or home_assistant is not None or speed == 0):
+        raise UsageProblemError("--household lives in the simulated home; it needs --speed > 0, no broker")
+    if robot not in BODIES:
+        raise UsageProblemError(f"--robot: unknown body {robot!r}; expected one of {', '.join(BODIES)}")
+    if robot != "builtin" and (mqtt is not None or home_assistant is not None):
+        raise UsageProblemError(
+            f"--robot {robot} is the simulated home's robot; in a home on a broker or Home Assistant "
+            "the robot switches by IoT"
+        )
+    if robot == "pyrobosim":  # before any training: the extra missing is said at once
+        from homecog.simulation.pyrobosim_body import require_pyrobosim
+
+        require_pyrobosim()
+
+
+def _household(household: str | None, home: Home) -> Home | None:
+    """The home of ``--household``'s wishes, checked against the served ``home``."""
+    if household is None:
+        return None
+    from homecog.home.content import is_compatible
+
+    truth = load_home(household)
+    problems = is_compatible(truth, home)
+    if problems:
+        raise UsageProblemError(
+            f"--household {truth.source}: not compatible with home '{home.name}': {'; '.join(problems)}"
+        )
+    return truth
+
+
+def _simulated(home: Home, speed: float, truth: Home | None) -> Any:
+    """The simulated home (its routine switching devices unless a household lives there), or
+    the manual source at ``--speed 0``."""
+    from homecog.context.manual import ManualSource
+    from homecog.context.simulated import SimulatedHome
+
+    return (
+        SimulatedHome(home, speed=speed, routine_switches=truth is None) if speed > 0 else ManualSource(home)
+    )
+
+
+def _start(outside: Outside, source: Any, home: Home, stack: contextlib.ExitStack) -> Any:
+    """Start an outside source, to be stopped with the server; said once it is."""
+    source.start()
+    stack.callback(source.stop)
+    stdout.print(outside.source.said(home, outside.url, source))
+    return source
+
+
+def _mirror(home: Home, url: str, source: Any, runtime: Any, stack: contextlib.ExitStack) -> None:
+    """``--publish``: the simulated home on a broker, its states out and commands in."""
+    from homecog.context.mqtt_publisher import MqttPublisher
+
+    mirror = MqttPublisher(home, url, on_command=runtime.switch).start()
+    stack.callback(mirror.stop)
+    mirror.publish(source.snapshot(), everything=True)
+    runtime.watchers.append(mirror.publish)
+    stdout.print(
+        f"the simulated home on {url}: states to homecog/{home.name}/state/<name>, "
+        f"commands from homecog/{home.name}/command/<device>"
+    )
 
 
 def household_settings(

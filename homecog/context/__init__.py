@@ -31,7 +31,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, Literal, Protocol, Self, runtime_checkable
 
-log = logging.getLogger("homecog.context")
+log = logging.getLogger(__name__)
 
 #: where a change comes from as far as the source knows: the home (a device reported, or the
 #: simulated household's hand: whoever did it, the robot tells), or set by hand through the

@@ -23,7 +23,7 @@ from homecog.context.ha_readings import EntityReadings
 from homecog.errors import HomeAssistantError
 from homecog.home.home_assistant import HomeAssistantMap, unknown_entities
 
-log = logging.getLogger("homecog.context.home_assistant")  # one logger, named as before the split
+log = logging.getLogger(__name__)
 
 MIN_RECONNECT_DELAY = 0.25  # seconds; doubled after each failed attempt ...
 MAX_RECONNECT_DELAY = 2.0  # ... up to this, so the robot is back within ~2 s of the instance

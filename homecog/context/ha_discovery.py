@@ -57,15 +57,15 @@ import paho.mqtt.client as mqtt
 from homecog.context.mqtt_broker import (
     CONNECT_TIMEOUT,
     DEFAULT_PREFIX,
+    BrokerClient,
     command_topic,
     connect,
     make_client,
-    parse_url,
     state_topic,
 )
 from homecog.home.model import Home
 
-log = logging.getLogger("homecog.context.mqtt")
+log = logging.getLogger(__name__)
 
 DISCOVERY_PREFIX = "homeassistant"
 STATE_LIMIT = 255  # Home Assistant keeps no longer state; the whole list is an attribute
@@ -110,37 +110,33 @@ def discovery_configs(
         config = {"unique_id": uid, "object_id": uid, "device": device, **available, **fields}
         return f"{discovery_prefix}/{component}/{node}/{key}/config", config
 
-    out = dict(
-        [
-            entity(
-                "sensor",
-                "services",
-                robot,
-                name="Services",
-                icon="mdi:robot",
-                state_topic=robot_topic(home, "services", prefix=prefix),
-                json_attributes_topic=robot_topic(home, "services/attributes", prefix=prefix),
-            ),
-            entity(
-                "sensor",
-                "last_action",
-                robot,
-                name="Last action",
-                icon="mdi:robot-happy",
-                state_topic=robot_topic(home, "action", prefix=prefix),
-                json_attributes_topic=robot_topic(home, "action/attributes", prefix=prefix),
-            ),
-            entity(
-                "button",
-                "undo",
-                robot,
-                name="Undo last action",
-                icon="mdi:undo",
-                command_topic=robot_topic(home, "undo", prefix=prefix),
-                payload_press=PRESS,
-            ),
-        ]
+    sensors = (  # key, name, icon, the topic of its state (and of its attributes below it)
+        ("services", "Services", "mdi:robot", "services"),
+        ("last_action", "Last action", "mdi:robot-happy", "action"),
     )
+    out = dict(
+        entity(
+            "sensor",
+            key,
+            robot,
+            name=name,
+            icon=icon,
+            state_topic=robot_topic(home, topic, prefix=prefix),
+            json_attributes_topic=robot_topic(home, f"{topic}/attributes", prefix=prefix),
+        )
+        for key, name, icon, topic in sensors
+    )
+    undo = robot_topic(home, "undo", prefix=prefix)
+    topic, config = entity(
+        "button",
+        "undo",
+        robot,
+        name="Undo last action",
+        icon="mdi:undo",
+        command_topic=undo,
+        payload_press=PRESS,
+    )
+    out[topic] = config
     for device in home.devices:
         topic, config = entity(
             "switch",
@@ -170,7 +166,7 @@ def services_state(services: list[str]) -> str:
     return text if len(text) <= STATE_LIMIT else text[: STATE_LIMIT - 1] + "…"
 
 
-class HomeAssistantDiscovery:
+class HomeAssistantDiscovery(BrokerClient):
     """homecog on a broker for Home Assistant: the discovery configs, the robot's state, and the
     undo button's presses handed to ``on_undo`` (on a worker thread of its own; what it returns,
     the action after the undo, becomes the last action's state).
@@ -193,14 +189,9 @@ class HomeAssistantDiscovery:
         client_id: str | None = None,
         connect_timeout: float = CONNECT_TIMEOUT,
     ) -> None:
-        self.home = home
-        self.url = url
+        super().__init__(home, url, prefix=prefix, client_id=client_id, connect_timeout=connect_timeout)
         self.on_undo = on_undo
-        self.prefix = prefix
         self.discovery_prefix = discovery_prefix
-        self.client_id = client_id
-        self.connect_timeout = connect_timeout
-        self.address = parse_url(url)
         self.configs = discovery_configs(home, prefix=prefix, discovery_prefix=discovery_prefix)
         self.presses = 0
         self._availability = robot_topic(home, "availability", prefix=prefix)
@@ -208,9 +199,7 @@ class HomeAssistantDiscovery:
         self._status_topic = f"{discovery_prefix}/status"  # Home Assistant's birth and last will
         self._states: dict[str, str] = {}  # the robot's state topics, as last published
         self._lock = threading.Lock()
-        self._connected = threading.Event()
         self._worker = concurrent.futures.ThreadPoolExecutor(1, thread_name_prefix="homecog-undo")
-        self._client: mqtt.Client | None = None
 
     # -- the connection ---------------------------------------------------------------------------
     def start(self, *, wait: bool = True) -> HomeAssistantDiscovery:
@@ -291,8 +280,7 @@ class HomeAssistantDiscovery:
 
     # -- paho's callbacks (its network thread) ---------------------------------------------------
     def _on_connect(self, client: mqtt.Client, userdata: Any, flags: Any, reason: Any, props: Any) -> None:
-        if reason.is_failure:
-            log.warning("MQTT broker %s refused the connection: %s", self.address.host, reason)
+        if self._refused(reason):
             return
         self._announce(client)
         with self._lock:  # after a reconnection, the robot's state again

@@ -22,8 +22,9 @@ from homecog.errors import ContextError
 from homecog.home.clock import format_clock
 from homecog.home.home_assistant import DeviceEntity, FeatureEntity, feature_value
 from homecog.home.model import Home
+from homecog.home.states import state_word
 
-log = logging.getLogger("homecog.context.home_assistant")  # one logger, named as before the split
+log = logging.getLogger(__name__)
 
 
 class EntityReadings(ConnectedSource):
@@ -97,7 +98,7 @@ class EntityReadings(ConnectedSource):
                     )
                     name, value = m.feature, feature_value(self.home.feature(m.feature), m, raw)
                 else:
-                    name, value = m.device, ("on" if m.state(str(state.get("state"))) else "off")
+                    name, value = m.device, state_word(m.state(str(state.get("state"))))
             except ContextError as e:
                 self._reject(m.feature if isinstance(m, FeatureEntity) else m.device, str(e))
                 continue

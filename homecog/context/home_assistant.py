@@ -10,7 +10,8 @@ A state that cannot be read — ``unavailable``, ``unknown``, a number outside e
 the section does not map — is logged, counted in :attr:`HomeAssistantSource.rejected` and
 skipped: the feature keeps its last good value. When the connection drops (Home Assistant
 restarts, the network goes away) the source connects again, with a delay that doubles from
-:data:`MIN_RECONNECT_DELAY` up to :data:`MAX_RECONNECT_DELAY`, and subscribes and takes a new
+:data:`~homecog.context.ha_connection.MIN_RECONNECT_DELAY` up to
+:data:`~homecog.context.ha_connection.MAX_RECONNECT_DELAY`, and subscribes and takes a new
 snapshot; while it is away the robot does not act on stale states (:attr:`ready` is false) and a
 switch it is asked for is logged and skipped.
 
@@ -47,14 +48,12 @@ from collections.abc import Callable, Mapping
 from typing import Any
 
 from homecog.context.ha_client import CONNECT_TIMEOUT, TOKEN_HELP, websocket_url
-from homecog.context.ha_connection import MAX_RECONNECT_DELAY, MIN_RECONNECT_DELAY, HomeAssistantConnection
+from homecog.context.ha_connection import HomeAssistantConnection
 from homecog.errors import ContextError, HomeAssistantError
 from homecog.home.home_assistant import DeviceEntity, FeatureEntity, HomeAssistantMap
 from homecog.home.model import Home
 
 log = logging.getLogger(__name__)
-
-__all__ = ["MAX_RECONNECT_DELAY", "MIN_RECONNECT_DELAY", "HomeAssistantSource"]
 
 
 class HomeAssistantSource(HomeAssistantConnection):
@@ -94,10 +93,7 @@ class HomeAssistantSource(HomeAssistantConnection):
         if home.home_assistant is None:
             raise HomeAssistantError(f"{home.source}: no home_assistant section; see homecog ha scaffold")
         if not token:
-            raise HomeAssistantError(
-                f"no token for Home Assistant at {url}: set $HOMECOG_HA_TOKEN or give --ha-token, "
-                + TOKEN_HELP
-            )
+            raise HomeAssistantError(f"no token for Home Assistant at {url}: give {TOKEN_HELP}")
         self.home = home
         self.url = url
         self.token = token

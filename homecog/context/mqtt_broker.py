@@ -1,18 +1,43 @@
 """An MQTT broker as homecog reaches it: its address from a URL, the topics of a home on it, and
 a paho client connected to it (with its network thread, which reconnects by itself).
 
+A real home (or the simulated one, through :class:`~homecog.context.mqtt_publisher.MqttPublisher`)
+publishes the state of every feature and device to a broker;
+:class:`~homecog.context.mqtt_source.MqttSource` follows those topics and gives the running system
+the whole context, and publishes the robot's switch commands for the home's devices to act on.
+The topic layout, with ``PREFIX`` (default ``homecog``) and ``HOME`` the home's name:
+
+``PREFIX/HOME/state/<feature or device>``
+    The current value as text, published *retained* so a newcomer learns it at once: a time of
+    day ``HH:MM``, a number as a decimal (``25.5``), a category (``read``), a device ``on`` or
+    ``off``. E.g. ``homecog/paper/state/temperature`` → ``25.5``.
+``PREFIX/HOME/context``
+    Optional: several values at once as a JSON object, ``{"behavior": "sleep", "lamp": "off"}``.
+``PREFIX/HOME/command/<device>``
+    The robot's IoT command, ``on`` or ``off`` (QoS 1, not retained), e.g.
+    ``homecog/paper/command/window`` → ``off``. The home switches the device and publishes its
+    new state.
+
+Topic names and URLs need no broker:
+
 >>> from homecog.home import load_home
 >>> home = load_home("paper")
 >>> context_topic(home), command_topic(home, "lamp")
 ('homecog/paper/context', 'homecog/paper/command/lamp')
+>>> state_topic(home, "temperature"), command_topic(home, "window", prefix="lab")
+('homecog/paper/state/temperature', 'lab/paper/command/window')
+>>> parse_url("mqtts://robot:secret@broker.local")
+BrokerAddress(host='broker.local', port=8883, tls=True, username='robot', password='secret')
 """
 
 from __future__ import annotations
 
+import logging
 import ssl
 import threading
 import uuid
 from dataclasses import dataclass
+from typing import Any
 from urllib.parse import unquote, urlsplit
 
 import paho.mqtt.client as mqtt
@@ -115,3 +140,29 @@ def connect(client: mqtt.Client, address: BrokerAddress, connected: threading.Ev
         client.loop_stop()
         client.disconnect()
         raise MqttError(f"MQTT broker {where} did not accept the connection within {timeout:g} s")
+
+
+class BrokerClient:
+    """What each of homecog's clients of a broker holds (the source, the publisher, the Home
+    Assistant discovery): the home, the broker's URL and address, the topic prefix, the paho
+    client once started, and whether it is connected."""
+
+    def __init__(
+        self, home: Home, url: str, *, prefix: str, client_id: str | None, connect_timeout: float
+    ) -> None:
+        self.home = home
+        self.url = url
+        self.prefix = prefix
+        self.client_id = client_id
+        self.connect_timeout = connect_timeout
+        self.address = parse_url(url)  # a bad URL fails here, before anything starts
+        self._connected = threading.Event()
+        self._client: mqtt.Client | None = None
+
+    def _refused(self, reason: Any) -> bool:
+        """Whether the broker refused the connection (logged, by the client's own module)."""
+        if reason.is_failure:
+            logging.getLogger(type(self).__module__).warning(
+                "MQTT broker %s refused the connection: %s", self.address.host, reason
+            )
+        return bool(reason.is_failure)

@@ -16,10 +16,10 @@ import paho.mqtt.client as mqtt
 from homecog.context.mqtt_broker import (
     CONNECT_TIMEOUT,
     DEFAULT_PREFIX,
+    BrokerClient,
     command_topic,
     connect,
     make_client,
-    parse_url,
     state_topic,
 )
 from homecog.errors import ContextError
@@ -27,10 +27,10 @@ from homecog.home.codec import normalize
 from homecog.home.model import Home
 from homecog.home.states import parse_state
 
-log = logging.getLogger("homecog.context.mqtt")  # one logger for MQTT, named as before the split
+log = logging.getLogger(__name__)
 
 
-class MqttPublisher:
+class MqttPublisher(BrokerClient):
     """Publishes a home's context to a broker (retained state topics), as a real home would;
     the simulated home uses it. Commands the robot publishes are handed to ``on_command``.
 
@@ -52,18 +52,11 @@ class MqttPublisher:
         on_command: Callable[[str, bool], None] | None = None,
         connect_timeout: float = CONNECT_TIMEOUT,
     ) -> None:
-        self.home = home
-        self.url = url
-        self.prefix = prefix
-        self.client_id = client_id
+        super().__init__(home, url, prefix=prefix, client_id=client_id, connect_timeout=connect_timeout)
         self.on_command = on_command
-        self.connect_timeout = connect_timeout
-        self.address = parse_url(url)
         self._published: dict[str, str] = {}
         self._pending: list[mqtt.MQTTMessageInfo] = []
         self._lock = threading.Lock()  # publish is called from the simulation and paho threads
-        self._connected = threading.Event()
-        self._client: mqtt.Client | None = None
 
     def start(self) -> MqttPublisher:
         """Connect; raises :class:`MqttError` when the broker cannot be reached."""
@@ -126,8 +119,7 @@ class MqttPublisher:
         return sent
 
     def _on_connect(self, client: mqtt.Client, userdata: Any, flags: Any, reason: Any, props: Any) -> None:
-        if reason.is_failure:
-            log.warning("MQTT broker %s refused the connection: %s", self.address.host, reason)
+        if self._refused(reason):
             return
         if self.on_command is None:
             self._connected.set()

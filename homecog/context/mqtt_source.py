@@ -1,9 +1,20 @@
 """The context of a home followed on an MQTT broker (:class:`MqttSource`), and the robot's
 switches published to it as commands.
 
-The topic layout is :mod:`homecog.context.mqtt`'s. A value that does not fit the home is ignored
-with a logged warning and counted; a broker that goes away is reconnected to and the topics are
-subscribed to again.
+The topic layout is :mod:`homecog.context.mqtt_broker`'s. A value that does not fit the home (an
+unknown category, not a number, outside every bin) is ignored with a logged warning and counted
+in :attr:`MqttSource.rejected`. A broker that goes away is reconnected to (with a growing delay,
+at most :data:`~homecog.context.mqtt_broker.MAX_RECONNECT_DELAY` seconds) and the topics are
+subscribed to again; retained states arrive anew.
+
+Against a broker (not run as a doctest)::
+
+    source = MqttSource(load_home("paper"), "mqtt://127.0.0.1:1883", on_change=print)
+    source.start()                      # raises MqttError when the broker cannot be reached
+    source.wait_ready(10)               # every feature and device received
+    source.snapshot()["behavior"]       # 'read'
+    source.switch("window", False)      # publishes 'off' to homecog/paper/command/window
+    source.stop()
 """
 
 from __future__ import annotations
@@ -20,19 +31,20 @@ from homecog.context import ConnectedSource, DeviceChange
 from homecog.context.mqtt_broker import (
     CONNECT_TIMEOUT,
     DEFAULT_PREFIX,
+    BrokerClient,
     command_topic,
     connect,
     make_client,
-    parse_url,
 )
 from homecog.errors import ContextError
 from homecog.home.codec import normalize
 from homecog.home.model import Home
+from homecog.home.states import state_word
 
-log = logging.getLogger("homecog.context.mqtt")  # one logger for MQTT, named as before the split
+log = logging.getLogger(__name__)
 
 
-class MqttSource(ConnectedSource):
+class MqttSource(BrokerClient, ConnectedSource):
     """The context of a home, followed on an MQTT broker; a :class:`ContextSource`.
 
     Parameters
@@ -62,21 +74,14 @@ class MqttSource(ConnectedSource):
         on_change: Callable[[dict[str, str]], None] | None = None,
         connect_timeout: float = CONNECT_TIMEOUT,
     ) -> None:
-        self.home = home
-        self.url = url
-        self.prefix = prefix
-        self.client_id = client_id
+        super().__init__(home, url, prefix=prefix, client_id=client_id, connect_timeout=connect_timeout)
         self.on_change = on_change
-        self.connect_timeout = connect_timeout
-        self.address = parse_url(url)  # a bad URL fails here, before anything starts
         self.rejected = 0
         self._names = home.feature_names + home.device_names
         self._devices = set(home.device_names)
         self._values: dict[str, str] = {}
         self._lock = threading.Lock()
         self._changed = threading.Condition(self._lock)
-        self._connected = threading.Event()
-        self._client: mqtt.Client | None = None
         self._base = f"{prefix}/{home.name}"
 
     # -- lifecycle -------------------------------------------------------------------
@@ -133,15 +138,14 @@ class MqttSource(ConnectedSource):
             )
         if self._client is None:
             raise ContextError("MQTT source not started; call start() first")
-        payload = "on" if on else "off"
+        payload = state_word(on)
         log.info("MQTT command %s -> %s", device, payload)
         # paho queues the message while the broker is away and sends it after reconnecting
         self._client.publish(command_topic(self.home, device, prefix=self.prefix), payload, qos=1)
 
     # -- network thread callbacks ---------------------------------------------------------
     def _on_connect(self, client: mqtt.Client, userdata: Any, flags: Any, reason: Any, props: Any) -> None:
-        if reason.is_failure:
-            log.warning("MQTT broker %s refused the connection: %s", self.address.host, reason)
+        if self._refused(reason):
             return
         # subscribing here renews the subscriptions after every reconnect
         client.subscribe([(f"{self._base}/state/+", 1), (f"{self._base}/context", 1)])

@@ -39,6 +39,7 @@ from homecog.errors import ContextError
 from homecog.home.codec import normalize
 from homecog.home.model import Home, format_number
 from homecog.home.routine import Routine, Step, default_routine
+from homecog.home.states import state_word
 
 _EPOCH = datetime(1970, 1, 1)
 DEFAULT_START = "2021-06-21 06:00"  # midsummer: warm days, cool nights, long daylight
@@ -195,7 +196,7 @@ class SimulatedHome(ChangeNotifier):
                     x = round(clamp(f, x + TEMPERATURE_NOISE * noise[i]), 1)
                 out[f.name] = format_number(clamp(f, x))
         for device, on in states.items():
-            out[device] = "on" if on else "off"
+            out[device] = state_word(on)
         return out
 
     def switch(self, device: str, on: bool) -> None:

@@ -24,6 +24,7 @@ from homecog.environment.reachability import optimal_start_states, solvable_star
 from homecog.home.classes import group_classes, home_classes, representatives
 from homecog.home.groups import Group, device_groups, project
 from homecog.home.model import Home
+from homecog.home.states import state_word
 
 
 @dataclass(frozen=True)
@@ -73,7 +74,7 @@ def find_conflicts(home: Home) -> ConflictReport:
                 f.name: f.values[classes.members[j][int(k)][0]]
                 for j, (f, k) in enumerate(zip(home.features, codes, strict=True))
             }
-            example |= {d: "on" if h >> i & 1 else "off" for i, d in enumerate(group.devices)}
+            example |= {d: state_word(bool(h >> i & 1)) for i, d in enumerate(group.devices)}
             conflicts.append(GroupConflict(group, stuck, n_c << len(group.devices), example))
     total = n_c << len(home.devices)
     stuck = 0

@@ -50,6 +50,7 @@ from typing import Any, Literal
 from homecog.home.clock import format_clock
 from homecog.home.codec import UNKNOWN
 from homecog.home.model import Home
+from homecog.home.states import state_word
 
 
 class Skip(Exception):  # noqa: N818 - a reason, not a failure
@@ -278,7 +279,7 @@ class EventStream:
             **{n: p.value for n, p in self.presence.items() if p.value is not None},
             **dict.fromkeys(self.clocks, clock),
         }
-        row.update({d: "on" if s else "off" for d, s in {**self.states, **before}.items()})
+        row.update({d: state_word(s) for d, s in {**self.states, **before}.items()})
         names = (*self.home.feature_names, *self.home.device_names)
         return [at.isoformat(timespec=self.timespec), *(str(row[n]) for n in names)]
 

@@ -25,6 +25,8 @@ from dataclasses import dataclass, field
 from datetime import datetime
 from pathlib import Path
 
+from homecog.home.states import state_word
+
 Interval = tuple[datetime, datetime]
 # the order of rows at one time: a device's first state, then the activity, presence, devices
 FIRST, ACTIVITY, PRESENCE, DEVICE = range(4)
@@ -88,7 +90,7 @@ class LogWriter:
         intervals = merged(intervals)
         if rank == DEVICE:
             under_way = any(start <= self.start < end for start, end in intervals)
-            self.add(self.start, entity, "on" if under_way else "off", FIRST)
+            self.add(self.start, entity, state_word(under_way), FIRST)
         for start, end in intervals:
             self.add(start, entity, "on", rank)
             self.add(end, entity, "off", rank)

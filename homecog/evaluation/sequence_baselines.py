@@ -34,6 +34,7 @@ from collections.abc import Collection, Mapping, Sequence
 from datetime import datetime, timedelta
 from typing import Any
 
+from homecog.home.states import state_word
 from homecog.knowledge.threshold import OnlineThreshold
 
 #: The keys of ``x`` beyond the home's features and devices.
@@ -85,7 +86,7 @@ def changes_something(sets: Sequence[tuple[str, bool]], x: Features) -> bool:
     >>> changes_something([("lamp", True)], {"lamp": "on"}), changes_something([], {})
     (False, True)
     """
-    return not sets or any(x.get(d) != ("on" if on else "off") for d, on in sets)
+    return not sets or any(x.get(d) != state_word(on) for d, on in sets)
 
 
 class _ShareLearner:

@@ -26,28 +26,37 @@ import json
 import threading
 import time
 from collections import OrderedDict
+from collections.abc import AsyncIterator
 from dataclasses import dataclass
 from typing import Any
 
 from sqlalchemy import select
 from sqlalchemy.engine import Connection
 from sqlalchemy.exc import DBAPIError, SQLAlchemyError
+from starlette.applications import Starlette
+from starlette.requests import Request
+from starlette.responses import Response
+from starlette.routing import Mount, Route, get_route_path
+from starlette.types import Receive, Scope, Send
 
 from homecog.context.manual import ManualSource
 from homecog.errors import FleetError, HomecogError, StoreError, UnknownHomeError
 from homecog.fleet.schema import FLEET_SCHEMA, HOME_SCHEMA, PREFIX, fleet_schema, prefixed
-from homecog.home.loader import load_home_text
+from homecog.home.validator import load_home_text
 from homecog.knowledge.database import db_message, make_engine, migrate
 from homecog.knowledge.schema import HomeRow
 from homecog.knowledge.store import Store
 from homecog.knowledge.store_log import stored_homes
 from homecog.names import home_name_problem, shown
 from homecog.robot.runtime import Runtime
-from homecog.web.deps import authorized as is_authorized
+from homecog.web.deps import MISSING, authorized
+from homecog.web.main import api, create_app
 from homecog.web.planner import PLANNER
 from homecog.web.settings import Settings
 
-READ = ("GET", "HEAD")  # the methods of the list of homes and of the schemas
+READ = ["GET", "HEAD"]  # the methods of the list of homes and of the schemas
+#: What routing adds to a request's scope, left out of the one a home's own app is given.
+ROUTING = ("app", "router", "route", "endpoint", "path_params", "app_root_path")
 
 
 @dataclass
@@ -108,10 +117,8 @@ class Fleet:
     def entry(self, name: str) -> Entry:
         """The home's entry, from the cache or loaded (:class:`UnknownHomeError` naming the homes
         there are); not checked for staleness (:meth:`fresh`)."""
-        entry = self._entries.get(name)
+        entry = self.cached(name)
         if entry is not None:
-            with contextlib.suppress(KeyError):
-                self._entries.move_to_end(name)
             return entry
         with self._loading:  # one load of a home at a time, not one per waiting request
             entry = self._entries.get(name)
@@ -121,6 +128,14 @@ class Fleet:
                 while len(self._entries) > self.cache:
                     self._entries.popitem(last=False)
             return entry
+
+    def cached(self, name: str) -> Entry | None:
+        """The home's entry if the cache holds it (now the most recently used), else None."""
+        entry = self._entries.get(name)
+        if entry is not None:
+            with contextlib.suppress(KeyError):  # evicted by a load in another thread meanwhile
+                self._entries.move_to_end(name)
+        return entry
 
     def _load(self, name: str) -> Entry:
         try:
@@ -141,8 +156,6 @@ class Fleet:
         version = store.home_version()  # before the tree: a write in between is seen next time
         tree = store.load_tree()
         runtime = Runtime(home=home, store=store, tree=tree, source=ManualSource(home))
-        from homecog.web.main import create_app
-
         app = create_app(runtime, self.settings, fleet=True)
         return Entry(name=name, store=store, runtime=runtime, app=app, version=version)
 
@@ -224,67 +237,94 @@ class Versions:
 
 
 class FleetApp:
-    """The ASGI application of :class:`Fleet`: the list of homes, and each home's own app under
-    its prefix."""
+    """The ASGI application of :class:`Fleet`, routed by Starlette: the fleet's schema, the list
+    of homes, and under ``PREFIX`` each home's own app (its schema, and every other path with
+    its prefix taken off)."""
 
     def __init__(self, fleet: Fleet) -> None:
         self.fleet = fleet
         self.versions = Versions(fleet)
-        token = fleet.settings.token
-        self.token = None if token is None else token.encode()
-        self.schema = fleet_schema(token=token is not None)
+        self.token = fleet.settings.token
+        self.schema = fleet_schema(token=self.token is not None)
+        routes = [
+            Route(FLEET_SCHEMA, self._fleet_schema, methods=READ),  # as homecog up's: no token
+            Route(PREFIX, self._homes, methods=READ),
+            Mount(PREFIX, app=self._home),
+        ]
+        handlers = {404: self._not_found, 405: self._not_allowed}
+        self.app = Starlette(routes=routes, exception_handlers=handlers, lifespan=_lifespan)  # type: ignore[arg-type]
+        self.app.router.redirect_slashes = False  # a path is answered as asked, never redirected
 
-    async def __call__(self, scope: dict[str, Any], receive: Any, send: Any) -> None:
-        if scope["type"] == "lifespan":
-            return await _lifespan(receive, send)
-        if scope["type"] != "http":
-            return None
-        path: str = scope["path"]
-        method: str = scope["method"]
-        if path == FLEET_SCHEMA:  # as homecog up's /openapi.json: no token
-            if method not in READ:
-                return await _not_allowed(send, method)
-            return await _answer(send, 200, self.schema)
-        name, rest = None, ""
-        if path.startswith(PREFIX + "/"):
-            name, _, rest = path[len(PREFIX) + 1 :].partition("/")  # the path is decoded already
-        schema_asked = name is not None and rest == HOME_SCHEMA
-        authorized = is_authorized(scope["headers"], self.token, method)
-        if path.startswith("/api") and not authorized and not schema_asked:
-            detail = "this server needs its token: Authorization: Bearer <token>"
-            return await _answer(send, 401, {"detail": detail}, [(b"www-authenticate", b"Bearer")])
+    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
+        await self.app(scope, receive, send)
+
+    def _refusal(self, request: Request, name: str | None = None, *, token: bool = True) -> Response | None:
+        """401 for an ``/api`` path without the token (``token``: the path needs it), then 404
+        for a ``name`` no home can take (one spelling per home, never a NUL byte for the
+        database); None when neither."""
+        if token and request.url.path.startswith("/api") and not self._authorized(request):
+            return _json(401, {"detail": MISSING}, {"www-authenticate": "Bearer"})
         problem = None if name is None else home_name_problem(name)
-        if problem is not None:  # one spelling per home, and never a NUL byte for the database
-            return await _answer(send, 404, {"detail": problem})
+        return None if problem is None else _json(404, {"detail": problem})
+
+    def _authorized(self, request: Request) -> bool:
+        return authorized(request.scope["headers"], self.token, request.method)
+
+    async def _fleet_schema(self, request: Request) -> Response:
+        return _json(200, self.schema)
+
+    async def _homes(self, request: Request) -> Response:
+        refusal = self._refusal(request)
+        if refusal is not None:
+            return refusal
         try:
-            if path in (PREFIX, PREFIX + "/"):
-                if method not in READ:
-                    return await _not_allowed(send, method)
-                names = await asyncio.to_thread(self.fleet.names)
-                return await _answer(send, 200, {"homes": names})
-            if name is None:
-                detail = f"not found: the API is {PREFIX} and {PREFIX}/{{home}}/... ({FLEET_SCHEMA})"
-                return await _answer(send, 404, {"detail": detail})
-            if schema_asked and method not in READ:
-                return await _not_allowed(send, method)
-            entry = await self._fresh(name)
-        except UnknownHomeError as e:  # the names only to who has the token
-            detail = str(e)
-            if authorized:
-                with contextlib.suppress(HomecogError):
-                    detail = await asyncio.to_thread(self.fleet.unknown, name)  # type: ignore[arg-type]
-            return await _answer(send, 404, {"detail": detail})
-        except StoreError as e:
-            return await _answer(send, 503, {"detail": f"the knowledge database cannot be used: {e}"})
+            return _json(200, {"homes": await asyncio.to_thread(self.fleet.names)})
         except HomecogError as e:
-            return await _answer(send, 409, {"detail": str(e)})
-        if schema_asked:
+            return _failure(e)
+
+    async def _home(self, scope: Scope, receive: Receive, send: Send) -> None:
+        """``PREFIX/{name}/{rest}``: the home's schema, or its app answering ``/api/{rest}``."""
+        request = Request(scope)
+        name, _, rest = get_route_path(scope)[1:].partition("/")  # the path is decoded already
+        schema = rest == HOME_SCHEMA
+        answer = self._refusal(request, name, token=not schema)
+        if answer is None and schema and request.method not in READ:
+            answer = _not_allowed(request.method)
+        if answer is None:
+            try:
+                entry = await self._fresh(name)
+            except HomecogError as e:
+                answer = await self._unknown(e, name, request)
+        if answer is not None:
+            return await answer(scope, receive, send)
+        if schema:
             if entry.schema is None:
-                entry.schema = prefixed(entry.app.app.app.openapi(), f"{PREFIX}/{name}")
-            return await _answer(send, 200, entry.schema)
+                entry.schema = prefixed(api(entry.app).openapi(), f"{PREFIX}/{name}")
+            return await _json(200, entry.schema)(scope, receive, send)
         inner = "/api/" + rest
-        scope = {**scope, "path": inner, "raw_path": inner.encode()}
-        return await entry.app(scope, receive, send)
+        routed = {key: value for key, value in scope.items() if key not in ROUTING}
+        routed |= {"path": inner, "raw_path": inner.encode(), "root_path": scope.get("app_root_path", "")}
+        return await entry.app(routed, receive, send)
+
+    async def _unknown(self, error: HomecogError, name: str, request: Request) -> Response:
+        """The answer to a home that cannot be served: an unknown one names the homes there are,
+        only to who has the token."""
+        if not isinstance(error, UnknownHomeError):
+            return _failure(error)
+        detail = str(error)
+        if self._authorized(request):
+            with contextlib.suppress(HomecogError):
+                detail = await asyncio.to_thread(self.fleet.unknown, name)
+        return _json(404, {"detail": detail})
+
+    async def _not_found(self, request: Request, exc: Exception) -> Response:
+        refusal = self._refusal(request)
+        detail = f"not found: the API is {PREFIX} and {PREFIX}/{{home}}/... ({FLEET_SCHEMA})"
+        return refusal or _json(404, {"detail": detail})
+
+    async def _not_allowed(self, request: Request, exc: Exception) -> Response:
+        refusal = self._refusal(request, token=request.scope["route"].path != FLEET_SCHEMA)
+        return refusal or _not_allowed(request.method)
 
     async def _fresh(self, name: str) -> Entry:
         """The home's entry, loaded if need be, and up to the database's version. Its version
@@ -295,50 +335,36 @@ class FleetApp:
         if version is None:
             fleet.forget(name)
             raise UnknownHomeError(f"unknown home {shown(name)}")
-        entry = fleet._entries.get(name)
+        entry = fleet.cached(name)
         if entry is None or entry.version is None or version[1] != entry.version[1]:
             # not loaded yet, or built again (perhaps from another home file): the home, its
             # models and its tree are read anew, after the version read
             fleet.forget(name)
             return await asyncio.to_thread(fleet.entry, name)
-        with contextlib.suppress(KeyError):  # evicted by a load in another thread meanwhile
-            fleet._entries.move_to_end(name)
         if version != entry.version:
             await asyncio.to_thread(fleet.refresh, entry, version)
         return entry
 
 
-async def _answer(
-    send: Any, status: int, body: object, headers: list[tuple[bytes, bytes]] | None = None
-) -> None:
-    data = json.dumps(body).encode()
-    await send(
-        {
-            "type": "http.response.start",
-            "status": status,
-            "headers": [
-                (b"content-type", b"application/json"),
-                (b"content-length", b"%d" % len(data)),
-                *(headers or []),
-            ],
-        }
-    )
-    await send({"type": "http.response.body", "body": data})
+def _json(status: int, body: object, headers: dict[str, str] | None = None) -> Response:
+    return Response(json.dumps(body), status, headers, media_type="application/json")
 
 
-async def _not_allowed(send: Any, method: str) -> None:
+def _failure(error: HomecogError) -> Response:
+    """503 for a database that cannot be used, 409 for any other failure of a home."""
+    if isinstance(error, StoreError):
+        return _json(503, {"detail": f"the knowledge database cannot be used: {error}"})
+    return _json(409, {"detail": str(error)})
+
+
+def _not_allowed(method: str) -> Response:
     """405, with ``Allow`` as the one-home app words it (:mod:`homecog.web.errors`)."""
     allowed = ", ".join(READ)
     detail = f"{method} is not allowed here; allowed: {allowed}"
-    await _answer(send, 405, {"detail": detail}, [(b"allow", allowed.encode())])
+    return _json(405, {"detail": detail}, {"allow": allowed})
 
 
-async def _lifespan(receive: Any, send: Any) -> None:
-    while True:
-        message = await receive()
-        if message["type"] == "lifespan.startup":
-            await send({"type": "lifespan.startup.complete"})
-        elif message["type"] == "lifespan.shutdown":
-            PLANNER.close()
-            await send({"type": "lifespan.shutdown.complete"})
-            return
+@contextlib.asynccontextmanager
+async def _lifespan(app: Starlette) -> AsyncIterator[None]:
+    yield
+    PLANNER.close()

@@ -21,7 +21,7 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 
 from homecog.errors import FleetError, HomecogError, HomeFileError, StoreError
-from homecog.home.loader import load_home_text
+from homecog.home.validator import load_home_text
 from homecog.knowledge.database import db_message, make_engine, migrate, redact
 from homecog.knowledge.store import Store
 from homecog.knowledge.store_log import stored_homes

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 from homecog.home.content import content_hash, is_compatible
 from homecog.home.home_file import builtin_homes
-from homecog.home.loader import load_home, load_home_text
 from homecog.home.model import ComfortRule, Condition, Device, Feature, Home, Rewards, Service
+from homecog.home.validator import load_home, load_home_text
 
 __all__ = [
     "ComfortRule",

@@ -33,7 +33,7 @@ from homecog.errors import ContextError
 from homecog.home.clock import format_clock, parse_clock
 from homecog.home.model import Feature, Home, format_number
 from homecog.home.recent import Recent
-from homecog.home.states import STATE_WORDS, parse_state
+from homecog.home.states import STATE_WORDS, parse_state, state_word
 from homecog.names import shown
 
 
@@ -215,7 +215,7 @@ class Space:
 
 
 def parse_context(text: str, space: Space) -> Point:
-    """A ``--context`` string: comma-separated ``name=value`` for every feature and device.
+    """A context as text: comma-separated ``name=value`` for every feature and device.
 
     >>> from homecog.home import load_home
     >>> space = Space(load_home("paper"))
@@ -232,15 +232,15 @@ def parse_context(text: str, space: Space) -> Point:
             continue
         name, equals, value = (s.strip() for s in part.partition("="))
         if not equals or not name:
-            raise ContextError(f"--context: {shown(part)} is malformed: expected name=value")
+            raise ContextError(f"context: {shown(part)} is malformed: expected name=value")
         if name in pairs:
-            raise ContextError(f"--context: {name} given twice")
+            raise ContextError(f"context: {name} given twice")
         pairs[name] = value
     return space.point(pairs)
 
 
 def parse_services(text: str | list[str], home: Home) -> list[str]:
-    """A ``--want`` list (comma-separated service names), validated; an empty string is none."""
+    """A list of services wanted (comma-separated names), validated; an empty string is none."""
     names = [s.strip() for s in text.split(",")] if isinstance(text, str) else [s.strip() for s in text]
     names = [n for n in names if n]
     known = set(home.service_names)
@@ -309,7 +309,7 @@ def normalize(home: Home, name: str, value: object) -> str:
                 return format_number(float(parsed))
             return str(parsed)
     if name in home.device_names:
-        return "on" if parse_state(value, name) else "off"
+        return state_word(parse_state(value, name))
     raise ContextError(
         f"unknown feature or device {name!r}; expected {', '.join(home.feature_names + home.device_names)}"
     )
@@ -332,7 +332,7 @@ def json_context(home: Home, values: Mapping[str, object]) -> dict[str, str | fl
         elif kind == "numeric":
             out[name] = float(home.feature(name).parse(value))
         elif kind == "device":
-            out[name] = "on" if parse_state(value, name) else "off"
+            out[name] = state_word(parse_state(value, name))
         else:
             out[name] = str(value)
     return out

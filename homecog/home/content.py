@@ -19,15 +19,14 @@ import json
 from typing import Any
 
 from homecog.home.model import Condition, Home
+from homecog.home.states import state_word
 
 
 def _condition_json(home: Home, cond: Condition) -> dict[str, list[str]]:
     out = {
         home.features[f].name: sorted(home.features[f].values[k] for k in codes) for f, codes in cond.features
     }
-    out.update(
-        {home.devices[d].name: sorted("on" if s else "off" for s in states) for d, states in cond.devices}
-    )
+    out.update({home.devices[d].name: sorted(state_word(s) for s in states) for d, states in cond.devices})
     return out
 
 

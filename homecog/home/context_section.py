@@ -45,58 +45,70 @@ class ContextSection(ShapeChecks):
         if unit is not None:
             unit = str(unit)
         if kind == "categorical":
-            if "bins" in spec:
-                raise self.fail(f"{path}.bins", "a categorical feature has values, not bins")
-            if "values" not in spec:
-                raise self.fail(path, "missing key 'values'")
-            values = spec["values"]
-            if not isinstance(values, list):
-                raise self.fail(f"{path}.values", f"expected a list, got {kind_of(values)}")
-            if not values:
-                raise self.fail(f"{path}.values", "empty value list")
-            names = []
-            for i, v in enumerate(values):
-                if isinstance(v, (dict, list)) or v is None:
-                    raise self.fail(f"{path}.values[{i}]", f"expected a value name, got {kind_of(v)}")
-                text = str(v).strip()
-                if not text or any(c in text for c in ",=;\n"):
-                    raise self.fail(
-                        f"{path}.values[{i}]", f"value {text!r} may not be empty or contain , = ;"
-                    )
-                if text in names:
-                    raise self.fail(f"{path}.values[{i}]", f"duplicate value {text!r}")
-                names.append(text)
-            return Feature(name=name, kind="categorical", values=tuple(names), unit=unit)
+            return Feature(
+                name=name, kind="categorical", values=self.categorical_values(spec, path), unit=unit
+            )
+        names, bins = self.bins(spec, path, kind)
+        return Feature(name=name, kind=kind, values=names, bins=bins, unit=unit)
 
+    def categorical_values(self, spec: dict[str, object], path: str) -> tuple[str, ...]:
+        """The values of a categorical feature: names, each once."""
+        if "bins" in spec:
+            raise self.fail(f"{path}.bins", "a categorical feature has values, not bins")
+        if "values" not in spec:
+            raise self.fail(path, "missing key 'values'")
+        values = spec["values"]
+        if not isinstance(values, list):
+            raise self.fail(f"{path}.values", f"expected a list, got {kind_of(values)}")
+        if not values:
+            raise self.fail(f"{path}.values", "empty value list")
+        names: list[str] = []
+        for i, v in enumerate(values):
+            if isinstance(v, (dict, list)) or v is None:
+                raise self.fail(f"{path}.values[{i}]", f"expected a value name, got {kind_of(v)}")
+            text = str(v).strip()
+            if not text or any(c in text for c in ",=;\n"):
+                raise self.fail(f"{path}.values[{i}]", f"value {text!r} may not be empty or contain , = ;")
+            if text in names:
+                raise self.fail(f"{path}.values[{i}]", f"duplicate value {text!r}")
+            names.append(text)
+        return tuple(names)
+
+    def bins(
+        self, spec: dict[str, object], path: str, kind: str
+    ) -> tuple[tuple[str, ...], tuple[tuple[float, float], ...]]:
+        """The names and bounds of the bins of a numeric or clock feature, checked to cover."""
         if "values" in spec:
             raise self.fail(f"{path}.values", f"a {kind} feature has bins, not values")
         if "bins" not in spec:
             raise self.fail(path, "missing key 'bins'")
-        bins_spec = self.mapping(spec["bins"], f"{path}.bins")
         names, bins = [], []
-        for bin_name, bounds in bins_spec.items():
+        for bin_name, bounds in self.mapping(spec["bins"], f"{path}.bins").items():
             bpath = f"{path}.bins.{bin_name}"
             self.name(bin_name, bpath, "bin")
-            if not isinstance(bounds, list) or len(bounds) != 2:
-                raise self.fail(bpath, f"expected [low, high], got {bounds!r}")
-            if kind == "clock":
-                low, high = (self.hours(b, f"{bpath}[{i}]") for i, b in enumerate(bounds))
-                if low == high:  # [0, 24] and [24, 0] are the whole day, not empty
-                    raise self.fail(bpath, f"empty bin [{format_number(low)}, {format_number(high)}]")
-            else:
-                low, high = (self.number(b, f"{bpath}[{i}]") for i, b in enumerate(bounds))
-                if low >= high:
-                    raise self.fail(
-                        bpath,
-                        f"bins reversed: low {format_number(low)} is not below high {format_number(high)}",
-                    )
             names.append(bin_name)
-            bins.append((low % 24, high % 24) if kind == "clock" else (low, high))
+            bins.append(self.bounds(bounds, bpath, kind))
         if kind == "clock":
             self.check_clock_cover(names, bins, f"{path}.bins")
         else:
             self.check_numeric_cover(names, bins, f"{path}.bins")
-        return Feature(name=name, kind=kind, values=tuple(names), bins=tuple(bins), unit=unit)
+        return tuple(names), tuple(bins)
+
+    def bounds(self, bounds: object, path: str, kind: str) -> tuple[float, float]:
+        """``[low, high]`` of one bin: hours of the day (wrapping midnight) or numbers."""
+        if not isinstance(bounds, list) or len(bounds) != 2:
+            raise self.fail(path, f"expected [low, high], got {bounds!r}")
+        if kind == "clock":
+            low, high = (self.hours(b, f"{path}[{i}]") for i, b in enumerate(bounds))
+            if low == high:  # [0, 24] and [24, 0] are the whole day, not empty
+                raise self.fail(path, f"empty bin [{format_number(low)}, {format_number(high)}]")
+            return low % 24, high % 24
+        low, high = (self.number(b, f"{path}[{i}]") for i, b in enumerate(bounds))
+        if low >= high:
+            raise self.fail(
+                path, f"bins reversed: low {format_number(low)} is not below high {format_number(high)}"
+            )
+        return low, high
 
     def check_numeric_cover(self, names: list[str], bins: list[tuple[float, float]], path: str) -> None:
         order = sorted(range(len(bins)), key=lambda k: bins[k])

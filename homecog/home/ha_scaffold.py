@@ -39,7 +39,7 @@ from typing import Any
 import yaml
 
 from homecog.home.home_assistant import DOMAIN_DEFAULTS, NO_READING
-from homecog.home.loader import load_home_text
+from homecog.home.validator import load_home_text
 
 INF = math.inf
 CLOCK_BINS = {"night": ["22:00", "06:00"], "morning": ["06:00", "12:00"], "afternoon": ["12:00", "18:00"],
@@ -88,6 +88,66 @@ def _fahrenheit(bins: dict[str, list[float]]) -> dict[str, list[float]]:
     return {k: [v if math.isinf(v) else round(v * 9 / 5 + 32, 1) for v in b] for k, b in bins.items()}
 
 
+def _feature_of(state: Mapping[str, Any]) -> tuple[dict[str, Any], dict[str, Any], str | None] | None:
+    """The context feature an entity's state makes, if any: its spec in ``context``, its mapping
+    in ``home_assistant.features`` and what it is for the rules (``None``: nothing to them)."""
+    entity = state["entity_id"]
+    domain = entity.partition(".")[0]
+    attrs = state.get("attributes") or {}
+    device_class = attrs.get("device_class")
+    if domain == "sensor" and device_class in SENSOR_BINS:
+        return _sensor(attrs, device_class), {"entity": entity}, device_class
+    if (
+        domain == "input_number"
+        and isinstance(attrs.get("min"), (int, float))
+        and attrs.get("max", 0) > attrs["min"]
+    ):
+        return _input_number(attrs), {"entity": entity}, None
+    if domain in ("input_select", "select") and attrs.get("options"):
+        return _select(entity, attrs)
+    if domain == "person" and state.get("state") not in NO_READING:  # a person without trackers
+        return (
+            {"kind": "categorical", "values": ["home", "away"]},
+            {"entity": entity, "values": {"not_home": "away"}},
+            "person",
+        )
+    if domain == "binary_sensor" and device_class in BINARY_VALUES:
+        off, on = BINARY_VALUES[device_class]
+        return (
+            {"kind": "categorical", "values": [off, on]},
+            {"entity": entity, "values": {"off": off, "on": on}},
+            None,
+        )
+    return None
+
+
+def _sensor(attrs: Mapping[str, Any], device_class: str) -> dict[str, Any]:
+    unit, bins = SENSOR_BINS[device_class]
+    given = attrs.get("unit_of_measurement")
+    if device_class == "temperature" and given == "°F":
+        unit, bins = "°F", _fahrenheit(bins)
+    return {"kind": "numeric", "unit": given or unit, "bins": bins}
+
+
+def _input_number(attrs: Mapping[str, Any]) -> dict[str, Any]:
+    low, high = float(attrs["min"]), float(attrs["max"])
+    a, b = (round(low + (high - low) * k / 3, 3) for k in (1, 2))
+    spec: dict[str, Any] = {"kind": "numeric", "bins": {"low": [-INF, a], "medium": [a, b], "high": [b, INF]}}
+    if attrs.get("unit_of_measurement"):
+        spec["unit"] = attrs["unit_of_measurement"]
+    return spec
+
+
+def _select(entity: str, attrs: Mapping[str, Any]) -> tuple[dict[str, Any], dict[str, Any], None]:
+    options = [str(o) for o in attrs["options"]]
+    values = list(dict.fromkeys(_name(o) for o in options))
+    fmap: dict[str, Any] = {"entity": entity}
+    words = {o: _name(o) for o in options if _name(o) != o}
+    if words:
+        fmap["values"] = words
+    return {"kind": "categorical", "values": values}, fmap, None
+
+
 def scaffold(states: Iterable[Mapping[str, Any]], *, name: str = "my_home") -> tuple[str, dict[str, Any]]:
     """The YAML text of a home file for these entity states, and what it holds
     (``features``, ``devices``, ``services``: lists of names). The text always loads."""
@@ -101,51 +161,12 @@ def scaffold(states: Iterable[Mapping[str, Any]], *, name: str = "my_home") -> t
     for state in sorted(states, key=lambda s: s["entity_id"]):
         entity = state["entity_id"]
         domain, _, object_id = entity.partition(".")
-        attrs = state.get("attributes") or {}
-        device_class = attrs.get("device_class")
-        if domain == "sensor" and device_class in SENSOR_BINS:
-            unit, bins = SENSOR_BINS[device_class]
-            given = attrs.get("unit_of_measurement")
-            if device_class == "temperature" and given == "°F":
-                unit, bins = "°F", _fahrenheit(bins)
+        made = _feature_of(state)
+        if made is not None:
             feature = _unique(_name(object_id), taken)
-            context[feature] = {"kind": "numeric", "unit": given or unit, "bins": bins}
-            fmaps[feature] = {"entity": entity}
-            kinds[feature] = device_class
-        elif (
-            domain == "input_number"
-            and isinstance(attrs.get("min"), (int, float))
-            and attrs.get("max", 0) > attrs["min"]
-        ):
-            low, high = float(attrs["min"]), float(attrs["max"])
-            a, b = (round(low + (high - low) * k / 3, 3) for k in (1, 2))
-            feature = _unique(_name(object_id), taken)
-            context[feature] = {
-                "kind": "numeric",
-                "bins": {"low": [-INF, a], "medium": [a, b], "high": [b, INF]},
-            }
-            if attrs.get("unit_of_measurement"):
-                context[feature]["unit"] = attrs["unit_of_measurement"]
-            fmaps[feature] = {"entity": entity}
-        elif domain in ("input_select", "select") and attrs.get("options"):
-            options = [str(o) for o in attrs["options"]]
-            values = list(dict.fromkeys(_name(o) for o in options))
-            feature = _unique(_name(object_id), taken)
-            context[feature] = {"kind": "categorical", "values": values}
-            fmaps[feature] = {"entity": entity}
-            words = {o: _name(o) for o in options if _name(o) != o}
-            if words:
-                fmaps[feature]["values"] = words
-        elif domain == "person" and state.get("state") not in NO_READING:  # a person without trackers
-            feature = _unique(_name(object_id), taken)
-            context[feature] = {"kind": "categorical", "values": ["home", "away"]}
-            fmaps[feature] = {"entity": entity, "values": {"not_home": "away"}}
-            kinds[feature] = "person"
-        elif domain == "binary_sensor" and device_class in BINARY_VALUES:
-            off, on = BINARY_VALUES[device_class]
-            feature = _unique(_name(object_id), taken)
-            context[feature] = {"kind": "categorical", "values": [off, on]}
-            fmaps[feature] = {"entity": entity, "values": {"off": off, "on": on}}
+            context[feature], fmaps[feature], kind = made
+            if kind is not None:
+                kinds[feature] = kind
         elif domain in DOMAIN_DEFAULTS:
             device = _unique(_name(object_id), taken)
             devices[device] = {"iot": True}

@@ -34,15 +34,15 @@ not change what the robot learns, so the section is not part of the home's conte
 from __future__ import annotations
 
 import difflib
-import math
 import re
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
-from homecog.errors import ContextError, HomeFileError
-from homecog.home.clock import format_clock, parse_clock
-from homecog.home.model import Device, Feature, format_number
+from homecog.errors import ContextError
+from homecog.home.model import Device, Feature, find_named, reading_text
+from homecog.home.shapes import Fail, check_keys, kind_of, mapped_names, mapping_of
+from homecog.home.states import state_word
 
 ENTITY_ID = re.compile(r"^[a-z0-9_]+\.[a-z0-9_]+$")
 SERVICE = re.compile(r"^[a-z0-9_]+\.[a-z0-9_]+$")
@@ -65,8 +65,6 @@ DOMAIN_DEFAULTS: dict[str, tuple[tuple[str, ...] | None, tuple[str, ...], str, s
     "cover": (("open", "opening"), ("closed", "closing"), "cover.open_cover", "cover.close_cover"),
     "climate": (None, ("off",), "climate.turn_on", "climate.turn_off"),
 }
-
-Fail = Callable[[str, str], HomeFileError]
 
 
 @dataclass(frozen=True)
@@ -127,17 +125,11 @@ class HomeAssistantMap:
 
     def feature(self, name: str) -> FeatureEntity:
         """The mapping of a feature (:class:`KeyError` for an unmapped one)."""
-        for f in self.features:
-            if f.feature == name:
-                return f
-        raise KeyError(name)
+        return find_named(self.features, name, "feature")
 
     def device(self, name: str) -> DeviceEntity:
         """The mapping of a device."""
-        for d in self.devices:
-            if d.device == name:
-                return d
-        raise KeyError(name)
+        return find_named(self.devices, name, "device")
 
     @property
     def entities(self) -> tuple[str, ...]:
@@ -172,13 +164,7 @@ def feature_value(feature: Feature, mapping: FeatureEntity, state: object) -> st
         return value
     expected = "HH:MM[:SS]" if feature.kind == "clock" else f"a number in {feature.unit or 'its unit'}"
     try:
-        if feature.kind == "clock":
-            value = format_clock(parse_clock(text))
-        else:
-            number = float(text)
-            if not math.isfinite(number):
-                raise ValueError(text)
-            value = format_number(number)
+        value = reading_text(feature.kind, text)
     except ValueError:
         raise ContextError(f"{where}: state {text!r} is not {expected}") from None
     try:
@@ -232,47 +218,22 @@ def parse_home_assistant(
     if section is None:
         return None
     path = "home_assistant"
-    section = _mapping(section, path, fail)
-    for key in section:
-        if key not in ("features", "devices"):
-            raise fail(f"{path}.{key}", "unknown key; expected one of features, devices")
-    by_feature = {f.name: f for f in features}
-    by_device = {d.name: d for d in devices}
-    fmaps = _mapping(section.get("features"), f"{path}.features", fail, empty=True)
-    dmaps = _mapping(section.get("devices"), f"{path}.devices", fail, empty=True)
-    for key, known, what in ((fmaps, by_feature, "feature"), (dmaps, by_device, "device")):
-        for name in key:
-            if name not in known:
-                raise fail(
-                    f"{path}.{what}s.{name}", f"unknown {what} {name!r}; expected one of {', '.join(known)}"
-                )
-    missing = [f.name for f in features if f.kind != "clock" and f.name not in fmaps]
-    if missing:
-        raise fail(
-            f"{path}.features",
-            f"no entity for {', '.join(missing)}; every feature but the clock needs one",
-        )
-    missing = [d.name for d in devices if d.name not in dmaps]
-    if missing:
-        raise fail(f"{path}.devices", f"no entity for {', '.join(missing)}; every device needs one")
+    section = mapping_of(section, path, fail)
+    check_keys(section, path, ("features", "devices"), fail)
+    fmaps, dmaps = mapped_names(section, path, features, devices, fail)
     return HomeAssistantMap(
         features=tuple(
-            _feature(by_feature[n], fmaps[n], f"{path}.features.{n}", fail) for n in by_feature if n in fmaps
+            _feature(f, fmaps[f.name], f"{path}.features.{f.name}", fail) for f in features if f.name in fmaps
         ),
-        devices=tuple(_device(by_device[n], dmaps[n], f"{path}.devices.{n}", fail) for n in by_device),
+        devices=tuple(_device(d, dmaps[d.name], f"{path}.devices.{d.name}", fail) for d in devices),
     )
 
 
-def _mapping(
-    value: object, path: str, fail: Fail, *, empty: bool = False, short: bool = False
-) -> dict[str, Any]:
-    if value is None and empty:
-        return {}
-    if short and isinstance(value, str) and ENTITY_ID.match(value.strip()):
-        return {"entity": value}  # the short form `lamp: light.desk_lamp`
-    if not isinstance(value, dict):
-        raise fail(path, f"expected a mapping, got {_kind(value)}")
-    return value
+def _spec(value: object, path: str, fail: Fail) -> dict[str, Any]:
+    """The mapping of a feature or device, or its short form ``lamp: light.desk_lamp``."""
+    if isinstance(value, str) and ENTITY_ID.match(value.strip()):
+        return {"entity": value}
+    return mapping_of(value, path, fail)
 
 
 def _entity(spec: dict[str, Any], path: str, fail: Fail) -> str:
@@ -281,31 +242,26 @@ def _entity(spec: dict[str, Any], path: str, fail: Fail) -> str:
     entity = spec["entity"]
     if not isinstance(entity, str) or not ENTITY_ID.match(entity.strip()):
         raise fail(
-            f"{path}.entity", f"expected an entity id such as sensor.outdoor_temperature, got {_kind(entity)}"
+            f"{path}.entity",
+            f"expected an entity id such as sensor.outdoor_temperature, got {kind_of(entity)}",
         )
     return entity.strip()
 
 
-def _keys(spec: dict[str, Any], path: str, allowed: tuple[str, ...], fail: Fail) -> None:
-    for key in spec:
-        if key not in allowed:
-            raise fail(f"{path}.{key}", f"unknown key; expected one of {', '.join(allowed)}")
-
-
 def _feature(feature: Feature, spec: object, path: str, fail: Fail) -> FeatureEntity:
-    spec = _mapping(spec, path, fail, short=True)
-    _keys(spec, path, ("entity", "attribute", "values"), fail)
+    spec = _spec(spec, path, fail)
+    check_keys(spec, path, ("entity", "attribute", "values"), fail)
     entity = _entity(spec, path, fail)
     attribute = spec.get("attribute")
     if attribute is not None and (not isinstance(attribute, str) or not attribute.strip()):
-        raise fail(f"{path}.attribute", f"expected an attribute name, got {_kind(attribute)}")
+        raise fail(f"{path}.attribute", f"expected an attribute name, got {kind_of(attribute)}")
     words: list[tuple[str, str]] = []
     if "values" in spec:
         if feature.kind != "categorical":
             raise fail(
                 f"{path}.values", f"only categorical features map values; {feature.name} is {feature.kind}"
             )
-        values = _mapping(spec["values"], f"{path}.values", fail)
+        values = mapping_of(spec["values"], f"{path}.values", fail)
         for word, value in values.items():
             text = str(value).strip() if isinstance(value, (str, int, float)) else None
             if text not in feature.values:
@@ -327,9 +283,9 @@ def _states(value: object, path: str, fail: Fail) -> tuple[str, ...]:
     out = []
     for item in items:
         if isinstance(item, bool):  # YAML's true/false: Home Assistant writes states in lowercase words
-            item = "on" if item else "off"
+            item = state_word(item)
         if not isinstance(item, (str, int, float)) or not str(item).strip():
-            raise fail(path, f"expected a state or a list of states, got {_kind(value)}")
+            raise fail(path, f"expected a state or a list of states, got {kind_of(value)}")
         out.append(str(item).strip())
     if not out:
         raise fail(path, "empty list; expected at least one state")
@@ -338,13 +294,13 @@ def _states(value: object, path: str, fail: Fail) -> tuple[str, ...]:
 
 def _service(value: object, path: str, fail: Fail) -> str:
     if not isinstance(value, str) or not SERVICE.match(value.strip()):
-        raise fail(path, f"expected a service such as light.turn_on, got {_kind(value)}")
+        raise fail(path, f"expected a service such as light.turn_on, got {kind_of(value)}")
     return value.strip()
 
 
 def _device(device: Device, spec: object, path: str, fail: Fail) -> DeviceEntity:
-    spec = _mapping(spec, path, fail, short=True)
-    _keys(spec, path, ("entity", "on", "off", "turn_on", "turn_off"), fail)
+    spec = _spec(spec, path, fail)
+    check_keys(spec, path, ("entity", "on", "off", "turn_on", "turn_off"), fail)
     entity = _entity(spec, path, fail)
     domain = entity.partition(".")[0]
     default_on, default_off, default_turn_on, default_turn_off = DOMAIN_DEFAULTS.get(
@@ -375,9 +331,3 @@ def _device(device: Device, spec: object, path: str, fail: Fail) -> DeviceEntity
             "services; give turn_on and turn_off",
         )
     return DeviceEntity(device=device.name, entity=entity, on=on, off=off, turn_on=turn_on, turn_off=turn_off)
-
-
-def _kind(value: object) -> str:
-    if value is None:
-        return "nothing"
-    return {dict: "a mapping", list: "a list", str: f"the text {value!r}"}.get(type(value), f"{value!r}")

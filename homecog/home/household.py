@@ -90,25 +90,8 @@ def parse_household(section: object, fail: Callable[[str, str], HomeFileError] =
     minutes = {
         k: _minutes(section[k], f"household.{k}", fail) for k in ("undo_window", "hold") if k in section
     }
-    weights = dict(out.weights)
-    raw = section.get("weights", {})
-    if not isinstance(raw, dict):
-        raise fail("household.weights", "expected a mapping of explicit, observed, undo to whole numbers")
-    for kind, w in raw.items():
-        if kind not in KINDS:
-            raise fail(f"household.weights.{kind}", f"unknown kind; expected one of {', '.join(KINDS)}")
-        if isinstance(w, bool) or not isinstance(w, int) or not 1 <= w <= 100:
-            raise fail(f"household.weights.{kind}", f"{w!r}; expected a whole number from 1 to 100")
-        weights[kind] = w
-    users = section.get("users")
-    if users is not None:
-        if not isinstance(users, dict) or not all(isinstance(k, str) for k in users):
-            raise fail("household.users", "expected a mapping of people's ids to homecog user names")
-        for person, name in users.items():
-            problem = user_name_problem(name)
-            if problem is not None:
-                raise fail(f"household.users.{person}", problem)
-        users = {str(k): str(v) for k, v in users.items()}
+    weights = _weights(section.get("weights", {}), out.weights, fail)
+    users = _users(section.get("users"), fail)
     default = section.get("default_user", out.default_user)
     problem = user_name_problem(default)
     if problem is not None:
@@ -120,6 +103,35 @@ def parse_household(section: object, fail: Callable[[str, str], HomeFileError] =
         users=users,
         default_user=default,
     )
+
+
+def _weights(
+    raw: object, defaults: dict[str, int], fail: Callable[[str, str], HomeFileError]
+) -> dict[str, int]:
+    """The defaults with the section's ``weights`` over them."""
+    if not isinstance(raw, dict):
+        raise fail("household.weights", "expected a mapping of explicit, observed, undo to whole numbers")
+    weights = dict(defaults)
+    for kind, w in raw.items():
+        if kind not in KINDS:
+            raise fail(f"household.weights.{kind}", f"unknown kind; expected one of {', '.join(KINDS)}")
+        if isinstance(w, bool) or not isinstance(w, int) or not 1 <= w <= 100:
+            raise fail(f"household.weights.{kind}", f"{w!r}; expected a whole number from 1 to 100")
+        weights[kind] = w
+    return weights
+
+
+def _users(users: object, fail: Callable[[str, str], HomeFileError]) -> dict[str, str] | None:
+    """People's ids to homecog user names (``None`` where the section names none)."""
+    if users is None:
+        return None
+    if not isinstance(users, dict) or not all(isinstance(k, str) for k in users):
+        raise fail("household.users", "expected a mapping of people's ids to homecog user names")
+    for person, name in users.items():
+        problem = user_name_problem(name)
+        if problem is not None:
+            raise fail(f"household.users.{person}", problem)
+    return {str(k): str(v) for k, v in users.items()}
 
 
 def _minutes(value: object, path: str, fail: Callable[[str, str], HomeFileError]) -> float:

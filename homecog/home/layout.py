@@ -31,11 +31,11 @@ Errand(bring='cup', pour=True, dock=None, say=None)
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
-from homecog.errors import HomeFileError
+from homecog.home.shapes import Fail, check_keys, mapping_of, numbers
 
 Point2 = tuple[float, float]
 Segment = tuple[float, float, float, float]
@@ -43,6 +43,7 @@ Rect = tuple[float, float, float, float]
 
 WALL_THICKNESS = 0.1  # metres; walls are drawn and rasterized this thick
 _ERRAND_KEYS = ("bring", "pour", "dock", "say")
+_LAYOUT_KEYS = ("size", "rooms", "walls", "doors", "places", "objects", "robot", "errands")
 
 
 @dataclass(frozen=True)
@@ -162,7 +163,7 @@ def point_segment_distance(p: Point2, s: Segment) -> float:
 
 def parse_layout(
     data: object,
-    fail: Callable[[str, str], HomeFileError],
+    fail: Fail,
     *,
     devices: Mapping[str, tuple[str | None, bool]],
     interaction: set[str],
@@ -172,117 +173,24 @@ def parse_layout(
 
     ``fail(path, message)`` makes the error that names the file and key path.
     """
-
-    def mapping(value: object, path: str) -> dict[str, Any]:
-        if not isinstance(value, dict):
-            raise fail(path, f"expected a mapping, got {type(value).__name__}")
-        return value
-
-    def numbers(value: object, path: str, n: int) -> tuple[float, ...]:
-        ok = isinstance(value, (list, tuple)) and len(value) == n
-        ok = ok and all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in value)  # type: ignore[union-attr]
-        if not ok or not all(math.isfinite(v) for v in value):  # type: ignore[union-attr]
-            raise fail(path, f"expected a list of {n} numbers (metres), got {value!r}")
-        return tuple(float(v) for v in value)  # type: ignore[union-attr]
-
-    data = mapping(data, "layout")
-    allowed = ("size", "rooms", "walls", "doors", "places", "objects", "robot", "errands")
-    for key in data:
-        if key not in allowed:
-            raise fail(f"layout.{key}", f"unknown key; expected one of {', '.join(allowed)}")
-    for key in ("size", "places"):
-        if key not in data:
-            raise fail("layout", f"missing key '{key}'")
-    w, h = numbers(data["size"], "layout.size", 2)
-    if w <= 0 or h <= 0:
-        raise fail("layout.size", f"expected positive width and height, got {w:g} by {h:g}")
-
-    def inside(p: tuple[float, ...], path: str) -> None:
-        for x, y in zip(p[::2], p[1::2], strict=True):
-            if not (0 <= x <= w and 0 <= y <= h):
-                raise fail(path, f"point ({x:g}, {y:g}) lies outside the floor of {w:g} by {h:g} m")
-
-    rooms: dict[str, Rect] = {}
-    for name, value in mapping(data.get("rooms", {}) or {}, "layout.rooms").items():
-        r = numbers(value, f"layout.rooms.{name}", 4)
-        if not (r[0] < r[2] and r[1] < r[3]):
-            raise fail(f"layout.rooms.{name}", "expected [x0, y0, x1, y1] with x0 < x1 and y0 < y1")
-        inside(r, f"layout.rooms.{name}")
-        rooms[name] = r  # type: ignore[assignment]
-
-    def segments(key: str) -> tuple[Segment, ...]:
-        value = data.get(key, []) or []
-        if not isinstance(value, list):
-            raise fail(f"layout.{key}", f"expected a list of [x0, y0, x1, y1], got {value!r}")
-        out = []
-        for i, item in enumerate(value):
-            s = numbers(item, f"layout.{key}[{i}]", 4)
-            if s[0] != s[2] and s[1] != s[3]:
-                raise fail(f"layout.{key}[{i}]", "expected a horizontal or vertical segment")
-            if s[0] == s[2] and s[1] == s[3]:
-                raise fail(f"layout.{key}[{i}]", "is a point; expected a segment")
-            inside(s, f"layout.{key}[{i}]")
-            out.append(s)
-        return tuple(out)  # type: ignore[arg-type]
-
-    walls = segments("walls")
-    doors = segments("doors")
-    border = [(0.0, 0.0, w, 0.0), (w, 0.0, w, h), (0.0, h, w, h), (0.0, 0.0, 0.0, h)]
-    for i, d in enumerate(doors):
-        if not any(_on_segment(d, wall) for wall in [*border, *walls]):
-            raise fail(f"layout.doors[{i}]", "does not lie on a wall")
-
-    places: dict[str, Point2] = {}
-    for name, value in mapping(data["places"], "layout.places").items():
-        p = numbers(value, f"layout.places.{name}", 2)
-        inside(p, f"layout.places.{name}")
-        places[name] = p  # type: ignore[assignment]
-    if not places:
-        raise fail("layout.places", "is empty; expected at least one place")
-
-    objects: dict[str, str] = {}
-    for name, value in mapping(data.get("objects", {}) or {}, "layout.objects").items():
-        if value not in places:
-            raise fail(
-                f"layout.objects.{name}", f"unknown place {value!r}; expected one of {', '.join(places)}"
-            )
-        objects[name] = value
-
+    data = _mapping(data, "layout", fail)
+    check_keys(data, "layout", _LAYOUT_KEYS, fail, ("size", "places"))
+    size = _size(data["size"], fail)
+    rooms = _rooms(data.get("rooms", {}) or {}, size, fail)
+    walls = _segments(data, "walls", size, fail)
+    doors = _segments(data, "doors", size, fail)
+    _check_doors(doors, walls, size, fail)
+    places = _places(data["places"], size, fail)
+    objects = _objects(data.get("objects", {}) or {}, places, fail)
     robot = data.get("robot", next(iter(places)))
     if robot not in places:
         raise fail("layout.robot", f"unknown place {robot!r}; expected one of {', '.join(places)}")
-
-    errands: dict[str, Errand] = {}
-    for name, value in mapping(data.get("errands", {}) or {}, "layout.errands").items():
-        path = f"layout.errands.{name}"
-        if name not in services:
-            raise fail(path, f"unknown service {name!r}")
-        if name not in interaction:
-            raise fail(path, f"{name} switches devices; only a service without `set` has an errand")
-        spec = mapping(value, path)
-        for key in spec:
-            if key not in _ERRAND_KEYS:
-                raise fail(f"{path}.{key}", f"unknown key; expected one of {', '.join(_ERRAND_KEYS)}")
-        kinds = [k for k in ("bring", "dock", "say") if k in spec]
-        if len(kinds) != 1:
-            raise fail(path, "expected exactly one of bring, dock or say")
-        if "bring" in spec and spec["bring"] not in objects:
-            raise fail(f"{path}.bring", f"unknown object {spec['bring']!r}; expected one of layout.objects")
-        if "dock" in spec and spec["dock"] not in places:
-            raise fail(f"{path}.dock", f"unknown place {spec['dock']!r}")
-        if "pour" in spec and (not isinstance(spec["pour"], bool) or "bring" not in spec):
-            raise fail(f"{path}.pour", "expected true or false, with bring")
-        if "say" in spec and not isinstance(spec["say"], str):
-            raise fail(f"{path}.say", "expected a string")
-        errands[name] = Errand(
-            bring=spec.get("bring"),
-            pour=bool(spec.get("pour", False)),
-            dock=spec.get("dock"),
-            say=spec.get("say"),
-        )
-
+    errands = {
+        name: _errand(name, value, fail, interaction=interaction, services=services, layout=(places, objects))
+        for name, value in _mapping(data.get("errands", {}) or {}, "layout.errands", fail).items()
+    }
     layout = Layout(
-        size=(w, h),
+        size=size,
         rooms=rooms,
         walls=walls,
         doors=doors,
@@ -292,15 +200,144 @@ def parse_layout(
         errands=errands,
         device_rooms={d: room for d, (room, _) in devices.items() if room},
     )
-    for name, p in places.items():
+    _check_places_off_walls(layout, fail)
+    _check_hand_devices(layout, devices, fail)
+    return layout
+
+
+def _mapping(value: object, path: str, fail: Fail) -> dict[str, Any]:
+    return mapping_of(value, path, fail, kind=lambda v: type(v).__name__)
+
+
+def _size(value: object, fail: Fail) -> Point2:
+    w, h = numbers(value, "layout.size", fail, 2)
+    if w <= 0 or h <= 0:
+        raise fail("layout.size", f"expected positive width and height, got {w:g} by {h:g}")
+    return w, h
+
+
+def _inside(p: tuple[float, ...], size: Point2, path: str, fail: Fail) -> None:
+    """Every point of ``p`` (x, y, x, y, ...) on the floor."""
+    w, h = size
+    for x, y in zip(p[::2], p[1::2], strict=True):
+        if not (0 <= x <= w and 0 <= y <= h):
+            raise fail(path, f"point ({x:g}, {y:g}) lies outside the floor of {w:g} by {h:g} m")
+
+
+def _rooms(value: object, size: Point2, fail: Fail) -> dict[str, Rect]:
+    rooms: dict[str, Rect] = {}
+    for name, item in _mapping(value, "layout.rooms", fail).items():
+        path = f"layout.rooms.{name}"
+        r = numbers(item, path, fail, 4)
+        if not (r[0] < r[2] and r[1] < r[3]):
+            raise fail(path, "expected [x0, y0, x1, y1] with x0 < x1 and y0 < y1")
+        _inside(r, size, path, fail)
+        rooms[name] = r  # type: ignore[assignment]
+    return rooms
+
+
+def _segments(data: dict[str, Any], key: str, size: Point2, fail: Fail) -> tuple[Segment, ...]:
+    """The ``walls`` or ``doors``: horizontal or vertical segments on the floor."""
+    value = data.get(key, []) or []
+    if not isinstance(value, list):
+        raise fail(f"layout.{key}", f"expected a list of [x0, y0, x1, y1], got {value!r}")
+    out = []
+    for i, item in enumerate(value):
+        path = f"layout.{key}[{i}]"
+        s = numbers(item, path, fail, 4)
+        if s[0] != s[2] and s[1] != s[3]:
+            raise fail(path, "expected a horizontal or vertical segment")
+        if s[0] == s[2] and s[1] == s[3]:
+            raise fail(path, "is a point; expected a segment")
+        _inside(s, size, path, fail)
+        out.append(s)
+    return tuple(out)  # type: ignore[arg-type]
+
+
+def _check_doors(doors: tuple[Segment, ...], walls: tuple[Segment, ...], size: Point2, fail: Fail) -> None:
+    w, h = size
+    border = [(0.0, 0.0, w, 0.0), (w, 0.0, w, h), (0.0, h, w, h), (0.0, 0.0, 0.0, h)]
+    for i, d in enumerate(doors):
+        if not any(_on_segment(d, wall) for wall in [*border, *walls]):
+            raise fail(f"layout.doors[{i}]", "does not lie on a wall")
+
+
+def _places(value: object, size: Point2, fail: Fail) -> dict[str, Point2]:
+    places: dict[str, Point2] = {}
+    for name, item in _mapping(value, "layout.places", fail).items():
+        p = numbers(item, f"layout.places.{name}", fail, 2)
+        _inside(p, size, f"layout.places.{name}", fail)
+        places[name] = p  # type: ignore[assignment]
+    if not places:
+        raise fail("layout.places", "is empty; expected at least one place")
+    return places
+
+
+def _objects(value: object, places: Mapping[str, Point2], fail: Fail) -> dict[str, str]:
+    objects: dict[str, str] = {}
+    for name, place in _mapping(value, "layout.objects", fail).items():
+        if place not in places:
+            raise fail(
+                f"layout.objects.{name}", f"unknown place {place!r}; expected one of {', '.join(places)}"
+            )
+        objects[name] = place
+    return objects
+
+
+def _errand(
+    name: str,
+    value: object,
+    fail: Fail,
+    *,
+    interaction: set[str],
+    services: set[str],
+    layout: tuple[Mapping[str, Point2], Mapping[str, str]],
+) -> Errand:
+    """The errand of an interaction service; ``layout`` is the (places, objects) read so far."""
+    path = f"layout.errands.{name}"
+    if name not in services:
+        raise fail(path, f"unknown service {name!r}")
+    if name not in interaction:
+        raise fail(path, f"{name} switches devices; only a service without `set` has an errand")
+    spec = _mapping(value, path, fail)
+    check_keys(spec, path, _ERRAND_KEYS, fail)
+    if len([k for k in ("bring", "dock", "say") if k in spec]) != 1:
+        raise fail(path, "expected exactly one of bring, dock or say")
+    _check_errand(spec, path, fail, *layout)
+    return Errand(
+        bring=spec.get("bring"),
+        pour=bool(spec.get("pour", False)),
+        dock=spec.get("dock"),
+        say=spec.get("say"),
+    )
+
+
+def _check_errand(
+    spec: dict[str, Any], path: str, fail: Fail, places: Mapping[str, Point2], objects: Mapping[str, str]
+) -> None:
+    if "bring" in spec and spec["bring"] not in objects:
+        raise fail(f"{path}.bring", f"unknown object {spec['bring']!r}; expected one of layout.objects")
+    if "dock" in spec and spec["dock"] not in places:
+        raise fail(f"{path}.dock", f"unknown place {spec['dock']!r}")
+    if "pour" in spec and (not isinstance(spec["pour"], bool) or "bring" not in spec):
+        raise fail(f"{path}.pour", "expected true or false, with bring")
+    if "say" in spec and not isinstance(spec["say"], str):
+        raise fail(f"{path}.say", "expected a string")
+
+
+def _check_places_off_walls(layout: Layout, fail: Fail) -> None:
+    for name, p in layout.places.items():
         wall = layout.wall_near(p)
         if wall is not None:
             raise fail(f"layout.places.{name}", f"({p[0]:g}, {p[1]:g}) lies inside the wall {list(wall)}")
+
+
+def _check_hand_devices(layout: Layout, devices: Mapping[str, tuple[str | None, bool]], fail: Fail) -> None:
+    """Every device switched by hand has a place of its name or a room of the layout."""
     for device, (room, iot) in devices.items():
-        if not iot and device not in places and (room is None or room not in rooms):
+        if not iot and device not in layout.places and (room is None or room not in layout.rooms):
             raise fail(
                 "layout.places",
                 f"device {device!r} is switched by hand but has no place of its name"
                 + (f" and its room {room!r} is not in layout.rooms" if room else " and no room"),
             )
-    return layout

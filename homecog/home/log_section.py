@@ -51,14 +51,14 @@ of the home's content hash.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
-from homecog.errors import HomeFileError
-from homecog.home.model import Device, Feature, format_number
+from homecog.home.model import Device, Feature, find_named, format_number
+from homecog.home.shapes import Fail, check_keys, kind_of, mapped_names, mapping_of
+from homecog.home.states import state_word
 
-Fail = Callable[[str, str], HomeFileError]
 QUIET, HOLD = 10.0, 30.0  # minutes
 
 
@@ -105,17 +105,11 @@ class LogMap:
 
     def device(self, name: str) -> LogDevice:
         """The mapping of a device (:class:`KeyError` for an unmapped one)."""
-        for d in self.devices:
-            if d.device == name:
-                return d
-        raise KeyError(name)
+        return find_named(self.devices, name, "device")
 
     def presence_of(self, name: str) -> LogPresence:
         """The presence mapping of a feature."""
-        for p in self.presence:
-            if p.feature == name:
-                return p
-        raise KeyError(name)
+        return find_named(self.presence, name, "feature")
 
     @property
     def entities(self) -> frozenset[str]:
@@ -134,34 +128,17 @@ def parse_log(
         return None
     path = "log"
     section = _mapping(section, path, fail)
-    _keys(section, path, ("features", "devices", "quiet"), fail)
+    check_keys(section, path, ("features", "devices", "quiet"), fail)
     quiet = _minutes(section.get("quiet", QUIET), f"{path}.quiet", fail)
-    by_feature = {f.name: f for f in features}
-    by_device = {d.name: d for d in devices}
-    fmaps = _mapping(section.get("features"), f"{path}.features", fail, empty=True)
-    dmaps = _mapping(section.get("devices"), f"{path}.devices", fail, empty=True)
-    for given, known, what in ((fmaps, by_feature, "feature"), (dmaps, by_device, "device")):
-        for name in given:
-            if name not in known:
-                raise fail(
-                    f"{path}.{what}s.{name}", f"unknown {what} {name!r}; expected one of {', '.join(known)}"
-                )
-    missing = [f.name for f in features if f.kind != "clock" and f.name not in fmaps]
-    if missing:
-        raise fail(
-            f"{path}.features", f"no entity for {', '.join(missing)}; every feature but the clock needs one"
-        )
-    missing = [d.name for d in devices if d.name not in dmaps]
-    if missing:
-        raise fail(f"{path}.devices", f"no entity for {', '.join(missing)}; every device needs one")
-    mapped = [_device(n, dmaps[n], f"{path}.devices.{n}", fail) for n in by_device]
+    fmaps, dmaps = mapped_names(section, path, features, devices, fail, kind=_kind)
+    mapped = [_device(d.name, dmaps[d.name], f"{path}.devices.{d.name}", fail) for d in devices]
     plain: list[LogFeature] = []
     presence: list[LogPresence] = []
-    for name, feature in by_feature.items():
-        if name not in fmaps:
+    for feature in features:
+        if feature.name not in fmaps:
             continue
-        where = f"{path}.features.{name}"
-        spec = _mapping(fmaps[name], where, fail, short=True)
+        where = f"{path}.features.{feature.name}"
+        spec = _spec(fmaps[feature.name], where, fail)
         if "presence" in spec:
             presence.append(_presence(feature, spec, where, {d.entity: d.device for d in mapped}, fail))
         else:
@@ -169,22 +146,15 @@ def parse_log(
     return LogMap(features=tuple(plain), presence=tuple(presence), devices=tuple(mapped), quiet=quiet)
 
 
-def _mapping(
-    value: object, path: str, fail: Fail, *, empty: bool = False, short: bool = False
-) -> dict[str, Any]:
-    if value is None and empty:
-        return {}
-    if short and isinstance(value, (str, int)) and not isinstance(value, bool) and str(value).strip():
-        return {"entity": value}  # the short form `lamp: x10.a1`
-    if not isinstance(value, dict):
-        raise fail(path, f"expected a mapping, got {_kind(value)}")
-    return value
+def _mapping(value: object, path: str, fail: Fail) -> dict[str, Any]:
+    return mapping_of(value, path, fail, kind=_kind)
 
 
-def _keys(spec: dict[str, Any], path: str, allowed: tuple[str, ...], fail: Fail) -> None:
-    for key in spec:
-        if key not in allowed:
-            raise fail(f"{path}.{key}", f"unknown key; expected one of {', '.join(allowed)}")
+def _spec(value: object, path: str, fail: Fail) -> dict[str, Any]:
+    """The mapping of a feature or device, or its short form ``lamp: x10.a1``."""
+    if isinstance(value, (str, int)) and not isinstance(value, bool) and str(value).strip():
+        return {"entity": value}
+    return _mapping(value, path, fail)
 
 
 def _name(value: object, path: str, what: str, fail: Fail) -> str:
@@ -208,7 +178,7 @@ def _words(value: object, path: str, fail: Fail) -> tuple[str, ...]:
     out = []
     for item in items:
         if isinstance(item, bool):  # YAML's true/false
-            item = "on" if item else "off"
+            item = state_word(item)
         out.append(_name(item, path, "a state or a list of states", fail))
     if not out:
         raise fail(path, "empty list; expected at least one state")
@@ -225,8 +195,8 @@ def _on_off(spec: dict[str, Any], path: str, fail: Fail) -> tuple[tuple[str, ...
 
 
 def _device(name: str, spec: object, path: str, fail: Fail) -> LogDevice:
-    spec = _mapping(spec, path, fail, short=True)
-    _keys(spec, path, ("entity", "on", "off"), fail)
+    spec = _spec(spec, path, fail)
+    check_keys(spec, path, ("entity", "on", "off"), fail)
     if "entity" not in spec:
         raise fail(path, "missing key 'entity'")
     entity = _name(spec["entity"], f"{path}.entity", "an entity name", fail)
@@ -235,7 +205,7 @@ def _device(name: str, spec: object, path: str, fail: Fail) -> LogDevice:
 
 
 def _feature(feature: Feature, spec: dict[str, Any], path: str, fail: Fail) -> LogFeature:
-    _keys(spec, path, ("entity", "values"), fail)
+    check_keys(spec, path, ("entity", "values"), fail)
     if "entity" not in spec:
         raise fail(path, "missing key 'entity' (or 'presence')")
     entity = _name(spec["entity"], f"{path}.entity", "an entity name", fail)
@@ -262,7 +232,7 @@ def _value(feature: Feature, value: object, path: str, fail: Fail) -> str:
 def _presence(
     feature: Feature, spec: dict[str, Any], path: str, devices: dict[str, str], fail: Fail
 ) -> LogPresence:
-    _keys(spec, path, ("presence", "hold", "on", "off", "several"), fail)
+    check_keys(spec, path, ("presence", "hold", "on", "off", "several"), fail)
     if feature.kind != "categorical":
         raise fail(
             f"{path}.presence",
@@ -287,8 +257,7 @@ def _presence(
 
 
 def _kind(value: object) -> str:
-    if value is None:
-        return "nothing"
+    """What a value is, a number written as people write it."""
     if isinstance(value, (int, float)) and not isinstance(value, bool):
         return format_number(value)
-    return {dict: "a mapping", list: "a list", str: f"the text {value!r}"}.get(type(value), f"{value!r}")
+    return kind_of(value)

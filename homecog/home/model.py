@@ -1,6 +1,6 @@
 """The home definition: context features, devices, services and the common-sense rules.
 
-A :class:`Home` is immutable and knows nothing of files; :mod:`homecog.home.loader`
+A :class:`Home` is immutable and knows nothing of files; :mod:`homecog.home.validator`
 builds one from YAML. Codes are 0-based indices internally; the paper's 1-based
 coding and its normalization are in :mod:`homecog.home.encoding`.
 
@@ -17,22 +17,23 @@ coding and its normalization are in :mod:`homecog.home.encoding`.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Literal
+from typing import TYPE_CHECKING, Literal, TypeVar
 
 from homecog.errors import ContextError
 from homecog.home.clock import format_clock, parse_clock
 from homecog.home.household import Household
-from homecog.home.layout import Layout
 from homecog.home.states import parse_state
 
-if TYPE_CHECKING:  # it imports this module
+if TYPE_CHECKING:  # they import this module
     from homecog.home.home_assistant import HomeAssistantMap
+    from homecog.home.layout import Layout
     from homecog.home.log_section import LogMap
 
 FeatureKind = Literal["clock", "numeric", "categorical"]
 ON, OFF = True, False
+Named = TypeVar("Named")
 
 
 def format_number(x: float) -> str:
@@ -40,6 +41,29 @@ def format_number(x: float) -> str:
     if math.isinf(x):
         return "inf" if x > 0 else "-inf"
     return str(int(x)) if float(x).is_integer() else f"{x:g}"
+
+
+def reading_text(kind: str, text: str) -> str:
+    """A clock or numeric reading written as a scenario file writes it; :class:`ValueError`
+    where ``text`` is no time (``kind`` clock) or no finite number.
+
+    >>> reading_text("clock", "7:30"), reading_text("numeric", "25.0")
+    ('07:30', '25')
+    """
+    if kind == "clock":
+        return format_clock(parse_clock(text))
+    number = float(text)
+    if not math.isfinite(number):
+        raise ValueError(text)
+    return format_number(number)
+
+
+def find_named(items: Iterable[Named], name: str, key: str = "name") -> Named:
+    """The item whose ``key`` attribute is ``name``; :class:`KeyError` where none is."""
+    for item in items:
+        if getattr(item, key) == name:
+            return item
+    raise KeyError(name)
 
 
 @dataclass(frozen=True)
@@ -233,10 +257,7 @@ class Home:
     # -- lookups ---------------------------------------------------------------------
     def feature(self, name: str) -> Feature:
         """The feature of that name."""
-        for f in self.features:
-            if f.name == name:
-                return f
-        raise KeyError(name)
+        return find_named(self.features, name)
 
     def feature_index(self, name: str) -> int:
         """Position of a feature."""

@@ -41,6 +41,7 @@ from dataclasses import dataclass
 from datetime import datetime
 
 from homecog.home.model import Home
+from homecog.home.states import state_word
 
 UNKNOWN = "unknown"
 #: categorical features whose previous value and duration are followed, at most
@@ -133,7 +134,7 @@ class RecentPast:
         # per tracked feature: its current value, since when, and the value before it
         self._current: dict[str, tuple[str, datetime | None, str]] = {}
         self.devices = [d.name for d in home.devices]
-        self._sets = {sv.name: [(d, "on" if on else "off") for d, on in sv.sets] for sv in home.services}
+        self._sets = {sv.name: [(d, state_word(on)) for d, on in sv.sets] for sv in home.services}
         self._states: dict[str, str] = {}  # per device: its state at the latest moment
         self._switched: dict[str, datetime] = {}  # per device: when it was last seen to switch
 
@@ -181,6 +182,13 @@ class RecentPast:
                 self._current[name] = (now, when, UNKNOWN)
             elif now != self._current[name][0]:
                 self._current[name] = (now, when, self._current[name][0])
+        self._learn_states(when, context)
+        if when is not None:
+            self._learn_switches(when, wanted)
+        self._previous = wanted
+
+    def _learn_states(self, when: datetime | None, context: Mapping[str, object]) -> None:
+        """The devices' states of the moment; a change is a switch at ``when``, if known."""
         for device in self.devices:
             state = context.get(device)
             if state is None:
@@ -189,15 +197,16 @@ class RecentPast:
             if device in self._states and self._states[device] != state and when is not None:
                 self._switched[device] = when
             self._states[device] = state
-        for service in wanted if when is not None else ():  # what the moment's services switched
+
+    def _learn_switches(self, when: datetime, wanted: frozenset[str]) -> None:
+        """What the moment's services switched, and the switches too old to tell forgotten."""
+        for service in wanted:
             for device, state in self._sets.get(service, ()):
                 if self._states.get(device) != state:
-                    self._switched[device] = when  # type: ignore[assignment]
+                    self._switched[device] = when
                     self._states[device] = state
-        if when is not None:
-            self._last_at = when
-            for device in [
-                d for d, at in self._switched.items() if (when - at).total_seconds() >= SPANS[-1] * 60
-            ]:
-                del self._switched[device]
-        self._previous = wanted
+        self._last_at = when
+        for device in [
+            d for d, at in self._switched.items() if (when - at).total_seconds() >= SPANS[-1] * 60
+        ]:
+            del self._switched[device]

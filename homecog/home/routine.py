@@ -125,36 +125,7 @@ def parse_routine(
     device_names = [d.name for d in devices]
     raw: list[tuple[float, dict[str, str], dict[str, bool]]] = []
     for i, step in enumerate(section):
-        path = f"routine[{i}]"
-        if not isinstance(step, dict):
-            raise fail(path, f"expected a mapping with 'at', got {type(step).__name__}")
-        if "at" not in step:
-            raise fail(path, "missing key 'at'")
-        at = _hours(step["at"], f"{path}.at", fail)
-        if raw and at <= raw[-1][0]:
-            raise fail(f"{path}.at", "steps must be in time order; this one is not after the one before")
-        values: dict[str, str] = {}
-        sets: dict[str, bool] = {}
-        for key, value in step.items():
-            if key == "at":
-                continue
-            if key == "set":
-                sets = _sets(value, f"{path}.set", device_names, fail)
-                continue
-            feature = by_name.get(key) if isinstance(key, str) else None
-            if feature is None:
-                raise fail(
-                    f"{path}.{key}",
-                    f"unknown feature; expected at, set or one of {', '.join(categorical) or '(none)'}",
-                )
-            if feature.kind != "categorical":
-                raise fail(f"{path}.{key}", f"a {feature.kind} feature comes from the clock or the weather")
-            if not isinstance(value, str) or value not in feature.values:
-                raise fail(
-                    f"{path}.{key}", f"unknown value {value!r}; expected one of {', '.join(feature.values)}"
-                )
-            values[key] = value
-        raw.append((at, values, sets))
+        raw.append(_step(step, f"routine[{i}]", raw[-1][0] if raw else None, by_name, device_names, fail))
     # a feature a step leaves out keeps the value of the step before, around the clock
     current = {name: by_name[name].values[0] for name in categorical}
     for _ in range(2):
@@ -163,6 +134,51 @@ def parse_routine(
             current = {**current, **values}
             resolved.append(Step(at, dict(current), sets))
     return Routine(tuple(resolved))
+
+
+def _step(
+    step: object,
+    path: str,
+    before: float | None,
+    by_name: dict[str, Feature],
+    devices: list[str],
+    fail: Callable[[str, str], HomeFileError],
+) -> tuple[float, dict[str, str], dict[str, bool]]:
+    """``(hours, values, sets)`` of one step, later than the one ``before``."""
+    if not isinstance(step, dict):
+        raise fail(path, f"expected a mapping with 'at', got {type(step).__name__}")
+    if "at" not in step:
+        raise fail(path, "missing key 'at'")
+    at = _hours(step["at"], f"{path}.at", fail)
+    if before is not None and at <= before:
+        raise fail(f"{path}.at", "steps must be in time order; this one is not after the one before")
+    values: dict[str, str] = {}
+    sets: dict[str, bool] = {}
+    for key, value in step.items():
+        if key == "set":
+            sets = _sets(value, f"{path}.set", devices, fail)
+        elif key != "at":
+            values[key] = _value(by_name, key, value, f"{path}.{key}", fail)
+    return at, values, sets
+
+
+def _value(
+    by_name: dict[str, Feature],
+    key: object,
+    value: object,
+    path: str,
+    fail: Callable[[str, str], HomeFileError],
+) -> str:
+    """The value a step gives a categorical feature."""
+    feature = by_name.get(key) if isinstance(key, str) else None
+    if feature is None:
+        categorical = [f.name for f in by_name.values() if f.kind == "categorical"]
+        raise fail(path, f"unknown feature; expected at, set or one of {', '.join(categorical) or '(none)'}")
+    if feature.kind != "categorical":
+        raise fail(path, f"a {feature.kind} feature comes from the clock or the weather")
+    if not isinstance(value, str) or value not in feature.values:
+        raise fail(path, f"unknown value {value!r}; expected one of {', '.join(feature.values)}")
+    return value
 
 
 def _sets(

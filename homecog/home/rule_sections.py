@@ -71,27 +71,37 @@ class RuleSections(ShapeChecks):
             out.append(parse(self.mapping(rule, rpath, allow_empty=True), rpath))
         return tuple(out)
 
+    def by_name(
+        self,
+        section: object,
+        key: str,
+        names: list[str],
+        what: str,
+        parser: Callable[[str, str], Callable[[dict[str, Any], str], Any]],
+    ) -> tuple[tuple[Any, ...], ...]:
+        """A section of rules per device or service, in the home's order (none where it has
+        none); ``parser(name, path)`` checks the name and gives the parse of one of its rules."""
+        section = self.mapping(section, key, allow_empty=True)
+        found: dict[str, tuple[Any, ...]] = {}
+        for name, rules in section.items():
+            path = f"{key}.{name}"
+            if name not in names:
+                raise self.fail(path, f"unknown {what} {name!r}; expected one of {', '.join(names)}")
+            found[name] = self.rules(rules, path, parser(name, path))
+        return tuple(found.get(name, ()) for name in names)
+
     def comfort(
         self, section: object, features: tuple[Feature, ...], devices: tuple[Device, ...]
     ) -> tuple[tuple[ComfortRule, ...], ...]:
-        section = self.mapping(section, "comfort", allow_empty=True)
-        dnames = [d.name for d in devices]
-        by_device: dict[str, tuple[ComfortRule, ...]] = {}
-        for device, rules in section.items():
-            path = f"comfort.{device}"
-            if device not in dnames:
-                raise self.fail(path, f"unknown device {device!r}; expected one of {', '.join(dnames)}")
+        def parse(rule: dict[str, Any], rpath: str) -> ComfortRule:
+            self.keys(rule, rpath, ("when", "want"), ("want",))
+            when = self.condition(rule.get("when"), f"{rpath}.when", features, devices, True)
+            want = parse_device_state(rule["want"])
+            if want is None:
+                raise self.fail(f"{rpath}.want", f"expected on or off, got {rule['want']!r}")
+            return ComfortRule(when=when, want=want)
 
-            def parse(rule: dict[str, Any], rpath: str) -> ComfortRule:
-                self.keys(rule, rpath, ("when", "want"), ("want",))
-                when = self.condition(rule.get("when"), f"{rpath}.when", features, devices, True)
-                want = parse_device_state(rule["want"])
-                if want is None:
-                    raise self.fail(f"{rpath}.want", f"expected on or off, got {rule['want']!r}")
-                return ComfortRule(when=when, want=want)
-
-            by_device[device] = self.rules(rules, path, parse)
-        return tuple(by_device.get(name, ()) for name in dnames)
+        return self.by_name(section, "comfort", [d.name for d in devices], "device", lambda _n, _p: parse)
 
     def service_rules(
         self,
@@ -101,25 +111,21 @@ class RuleSections(ShapeChecks):
         devices: tuple[Device, ...],
         services: tuple[Service, ...],
     ) -> tuple[tuple[Condition, ...], ...]:
-        section = self.mapping(section, key, allow_empty=True)
         snames = [s.name for s in services]
-        by_service: dict[str, tuple[Condition, ...]] = {}
-        for service, rules in section.items():
-            path = f"{key}.{service}"
-            if service not in snames:
-                raise self.fail(path, f"unknown service {service!r}; expected one of {', '.join(snames)}")
+
+        def parse(rule: dict[str, Any], rpath: str) -> Condition:
+            self.keys(rule, rpath, ("when",))
+            return self.condition(
+                rule.get("when"), f"{rpath}.when", features, devices, context_only=key == "needs"
+            )
+
+        def parser(service: str, path: str) -> Callable[[dict[str, Any], str], Condition]:
             if key == "needs" and not services[snames.index(service)].is_interaction:
                 raise self.fail(
                     path,
                     f"needs are for interaction services; {service} sets devices "
                     "(its wanted states come from the comfort rules)",
                 )
+            return parse
 
-            def parse(rule: dict[str, Any], rpath: str) -> Condition:
-                self.keys(rule, rpath, ("when",))
-                return self.condition(
-                    rule.get("when"), f"{rpath}.when", features, devices, context_only=key == "needs"
-                )
-
-            by_service[service] = self.rules(rules, path, parse)
-        return tuple(by_service.get(name, ()) for name in snames)
+        return self.by_name(section, key, snames, "service", parser)

@@ -97,8 +97,38 @@ def _rows(
 ) -> list[Scenario]:
     """The rows of a scenario or event file, each checked."""
     needed = list(space.names)
-    out = []
     header = reader.fieldnames or []
+    _check_header(path, header, needed, events=events, corrections=corrections)
+    out = []
+    for line, row in enumerate(reader, start=2):
+        if None in row or any(row.get(c) is None for c in needed):
+            raise EvaluationError(f"{path}: line {line}: expected {len(header)} fields")
+        _check_readings(path, line, row, space, home)
+        timestamp = _check_timestamp(path, line, row["timestamp"]) if events or corrections else None
+        user = (row.get("user") or "").strip() or None  # a blank cell: the user the caller gives
+        problem = None if user is None else user_name_problem(user)
+        if problem is not None:
+            raise EvaluationError(f"{path}: line {line}, column user: {problem}")
+        context = {name: row[name].strip() for name in needed}
+        point = space.point(context)
+        truth_set, ambiguous = _wanted(path, line, row, point, home, truth)
+        out.append(
+            Scenario(
+                context=context,
+                point=point,
+                truth=truth_set,
+                choices=ambiguous,
+                user=user,
+                timestamp=timestamp,
+            )
+        )
+    return out
+
+
+def _check_header(
+    path: Path, header: Sequence[str], needed: list[str], *, events: bool, corrections: bool
+) -> None:
+    """The columns: every feature and device, a first ``timestamp`` for events, nothing unknown."""
     if not header:
         raise EvaluationError(f"{path}: empty file; expected a header with {', '.join(needed)}")
     required = [*needed, "timestamp"] if events or corrections else needed
@@ -111,51 +141,38 @@ def _rows(
     unknown = [c for c in header if c not in needed and c not in extra]
     if unknown:
         raise EvaluationError(f"{path}: line 1: unknown column(s) {', '.join(unknown)}")
-    for line, row in enumerate(reader, start=2):
-        if None in row or any(row.get(c) is None for c in needed):
-            raise EvaluationError(f"{path}: line {line}: expected {len(header)} fields")
-        for j, name in enumerate(needed):
-            value = row[name].strip()
-            try:
-                if j < space.n_features:
-                    if not is_missing(home.features[j], value):
-                        home.features[j].discretize(value)
-                else:
-                    parse_state(value, name)
-            except ContextError as e:
-                raise EvaluationError(f"{path}: line {line}, column {name}: {e}") from None
-        timestamp = _check_timestamp(path, line, row["timestamp"]) if events or corrections else None
-        user = (row.get("user") or "").strip() or None  # a blank cell: the command's --user
-        problem = None if user is None else user_name_problem(user)
-        if problem is not None:
-            raise EvaluationError(f"{path}: line {line}, column user: {problem}")
-        context = {name: row[name].strip() for name in needed}
-        point = space.point(context)
-        if row.get("services") is not None:
-            try:
-                wanted = parse_services(row["services"].replace(";", ","), truth)
-            except ContextError as e:
-                raise EvaluationError(f"{path}: line {line}, column services: {e}") from None
-            truth_set, ambiguous = frozenset(wanted), ()
-        elif point.missing:
-            name = home.features[min(point.missing)].name
-            raise EvaluationError(
-                f"{path}: line {line}, column {name}: a missing reading needs a services column "
-                "(the truth home cannot say what is wanted where a reading is unknown)"
-            )
-        else:
-            truth_set, ambiguous = truth_of(truth, point)
-        out.append(
-            Scenario(
-                context=context,
-                point=point,
-                truth=truth_set,
-                choices=ambiguous,
-                user=user,
-                timestamp=timestamp,
-            )
+
+
+def _check_readings(path: Path, line: int, row: dict[str, str], space: Space, home: Home) -> None:
+    """Every feature's reading (or a missing one) and every device's state of a row."""
+    for j, name in enumerate(space.names):
+        value = row[name].strip()
+        try:
+            if j >= space.n_features:
+                parse_state(value, name)
+            elif not is_missing(home.features[j], value):
+                home.features[j].discretize(value)
+        except ContextError as e:
+            raise EvaluationError(f"{path}: line {line}, column {name}: {e}") from None
+
+
+def _wanted(
+    path: Path, line: int, row: dict[str, str], point: Point, home: Home, truth: Home
+) -> tuple[frozenset[str], TruthChoices | tuple[()]]:
+    """The services a row wants: its ``services`` column, else what the truth home says."""
+    if row.get("services") is not None:
+        try:
+            wanted = parse_services(row["services"].replace(";", ","), truth)
+        except ContextError as e:
+            raise EvaluationError(f"{path}: line {line}, column services: {e}") from None
+        return frozenset(wanted), ()
+    if point.missing:
+        name = home.features[min(point.missing)].name
+        raise EvaluationError(
+            f"{path}: line {line}, column {name}: a missing reading needs a services column "
+            "(the truth home cannot say what is wanted where a reading is unknown)"
         )
-    return out
+    return truth_of(truth, point)
 
 
 def _check_timestamp(path: Path, line: int, value: str) -> datetime:

@@ -259,41 +259,56 @@ def _valid_order(
     """``rest`` (one group's services) in its own order if none is prohibited so, else the first
     order (depth first over what is done) in which none is; None where there is none, or where
     more than :data:`ORDER_LIMIT` services would have to be searched."""
-
-    def run(order: Sequence[int]) -> bool:
-        st = list(state)
-        for a in order:
-            if home.prohibited[a] and home.is_prohibited(a, codes, st):
-                return False
-            for d, v in effects[a]:
-                st[d] = v
-        return True
-
-    if run(rest):
+    st: Sequence[bool] | None = state
+    for a in rest:
+        st = _after(home, codes, st, a, effects) if st is not None else None
+    if st is not None:
         return list(rest)
     if len(rest) > ORDER_LIMIT:
         return None
-    dead: set[frozenset[int]] = set()
+    return _search_order(home, codes, tuple(state), tuple(rest), effects, set())
 
-    def search(st: tuple[bool, ...], left: tuple[int, ...]) -> list[int] | None:
-        if not left:
-            return []
-        key = frozenset(left)
-        if key in dead:
-            return None
-        for i, a in enumerate(left):
-            if home.prohibited[a] and home.is_prohibited(a, codes, st):
-                continue
-            nxt = list(st)
-            for d, v in effects[a]:
-                nxt[d] = v
-            found = search(tuple(nxt), left[:i] + left[i + 1 :])
-            if found is not None:
-                return [a, *found]
-        dead.add(key)
+
+def _after(
+    home: Home,
+    codes: Sequence[int],
+    state: Sequence[bool],
+    a: int,
+    effects: dict[int, list[tuple[int, bool]]],
+) -> list[bool] | None:
+    """The device states after service ``a``; None where it is prohibited in ``state``."""
+    if home.prohibited[a] and home.is_prohibited(a, codes, state):
         return None
+    after = list(state)
+    for d, v in effects[a]:
+        after[d] = v
+    return after
 
-    return search(tuple(state), tuple(rest))
+
+def _search_order(
+    home: Home,
+    codes: Sequence[int],
+    state: tuple[bool, ...],
+    left: tuple[int, ...],
+    effects: dict[int, list[tuple[int, bool]]],
+    dead: set[frozenset[int]],
+) -> list[int] | None:
+    """The first order of ``left`` in which none is prohibited, depth first; ``dead`` holds
+    the sets of services left found to have none."""
+    if not left:
+        return []
+    key = frozenset(left)
+    if key in dead:
+        return None
+    for i, a in enumerate(left):
+        after = _after(home, codes, state, a, effects)
+        if after is None:
+            continue
+        found = _search_order(home, codes, tuple(after), left[:i] + left[i + 1 :], effects, dead)
+        if found is not None:
+            return [a, *found]
+    dead.add(key)
+    return None
 
 
 def _connected(options: list[_Option]) -> list[list[_Option]]:

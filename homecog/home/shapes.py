@@ -1,5 +1,10 @@
-"""The checks every section of a home file is validated with: shapes (a mapping, a name, a
-number, hours of the day, a device state) and errors that name the file and the key path.
+"""The checks every section of a home file is validated with: shapes (a mapping, its keys, a
+name, a number, a list of numbers, hours of the day, a device state) and errors that name the
+file and the key path.
+
+The functions check a value and fail through ``fail(key path, message)``, the error maker a
+section is given (:data:`Fail`); :class:`ShapeChecks` is the same checks with the file's own
+error maker, which the top-level sections are built on.
 
 Paths index lists from 0 (``comfort.lamp[2].when``):
 
@@ -18,14 +23,16 @@ from __future__ import annotations
 
 import math
 import re
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 from homecog.errors import HomeFileError
 from homecog.home.clock import clock_hours
-from homecog.home.model import format_number
+from homecog.home.model import Device, Feature, format_number
 from homecog.home.states import STATE_WORDS
 
 _NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
+Fail = Callable[[str, str], HomeFileError]
 
 
 def parse_device_state(value: object) -> bool | None:
@@ -53,6 +60,77 @@ def kind_of(value: object) -> str:
     )
 
 
+def mapping_of(
+    value: object, path: str, fail: Fail, *, empty: bool = False, kind: Callable[[object], str] = kind_of
+) -> dict[Any, Any]:
+    """``value`` as a mapping (``None`` is an empty one where ``empty``); ``kind`` words what
+    it is instead."""
+    if value is None and empty:
+        return {}
+    if not isinstance(value, dict):
+        raise fail(path, f"expected a mapping, got {kind(value)}")
+    return value
+
+
+def check_keys(
+    spec: Mapping[Any, Any], path: str, allowed: tuple[str, ...], fail: Fail, required: tuple[str, ...] = ()
+) -> None:
+    """Every key of ``spec`` one of ``allowed``, and the ``required`` ones there."""
+    for key in spec:
+        if key not in allowed:
+            raise fail(
+                f"{path}.{key}" if path else str(key), f"unknown key; expected one of {', '.join(allowed)}"
+            )
+    for key in required:
+        if key not in spec:
+            raise fail(path, f"missing key '{key}'")
+
+
+def numbers(value: object, path: str, fail: Fail, n: int, unit: str = "metres") -> tuple[float, ...]:
+    """A list of ``n`` finite numbers (a point, a size, a segment in ``unit``).
+
+    >>> numbers([1, 2.5], "layout.size", ShapeChecks("den.yaml").fail, 2)
+    (1.0, 2.5)
+    """
+    ok = isinstance(value, (list, tuple)) and len(value) == n
+    ok = ok and all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in value)  # type: ignore[union-attr]
+    if not ok or not all(math.isfinite(v) for v in value):  # type: ignore[union-attr]
+        raise fail(path, f"expected a list of {n} numbers ({unit}), got {value!r}")
+    return tuple(float(v) for v in value)  # type: ignore[union-attr]
+
+
+def mapped_names(
+    section: dict[str, Any],
+    path: str,
+    features: Sequence[Feature],
+    devices: Sequence[Device],
+    fail: Fail,
+    *,
+    kind: Callable[[object], str] = kind_of,
+) -> tuple[dict[str, Any], dict[str, Any]]:
+    """The ``features`` and ``devices`` mappings of a section that maps every feature (but the
+    clock ones) and every device of the home to something, such as an entity."""
+    by_feature = {f.name: f for f in features}
+    by_device = {d.name: d for d in devices}
+    fmaps = mapping_of(section.get("features"), f"{path}.features", fail, empty=True, kind=kind)
+    dmaps = mapping_of(section.get("devices"), f"{path}.devices", fail, empty=True, kind=kind)
+    for given, known, what in ((fmaps, by_feature, "feature"), (dmaps, by_device, "device")):
+        for name in given:
+            if name not in known:
+                raise fail(
+                    f"{path}.{what}s.{name}", f"unknown {what} {name!r}; expected one of {', '.join(known)}"
+                )
+    missing = [n for n, f in by_feature.items() if f.kind != "clock" and n not in fmaps]
+    if missing:
+        raise fail(
+            f"{path}.features", f"no entity for {', '.join(missing)}; every feature but the clock needs one"
+        )
+    missing = [n for n in by_device if n not in dmaps]
+    if missing:
+        raise fail(f"{path}.devices", f"no entity for {', '.join(missing)}; every device needs one")
+    return fmaps, dmaps
+
+
 class ShapeChecks:
     """Checks of shapes that fail with the file and the key path; each section builds on them."""
 
@@ -64,10 +142,7 @@ class ShapeChecks:
         return HomeFileError(f"{self.source}: {where}{message}")
 
     def mapping(self, value: object, path: str, *, allow_empty: bool = False) -> dict[Any, Any]:
-        if value is None and allow_empty:
-            return {}
-        if not isinstance(value, dict):
-            raise self.fail(path, f"expected a mapping, got {kind_of(value)}")
+        value = mapping_of(value, path, self.fail, empty=allow_empty)
         if not value and not allow_empty:
             raise self.fail(path, "is empty; expected at least one entry")
         for key in value:
@@ -78,12 +153,7 @@ class ShapeChecks:
     def keys(
         self, value: dict[Any, Any], path: str, allowed: tuple[str, ...], required: tuple[str, ...] = ()
     ) -> None:
-        for key in value:
-            if key not in allowed:
-                raise self.fail(join_path(path, key), f"unknown key; expected one of {', '.join(allowed)}")
-        for key in required:
-            if key not in value:
-                raise self.fail(path, f"missing key '{key}'")
+        check_keys(value, path, allowed, self.fail, required)
 
     def name(self, value: object, path: str, what: str) -> str:
         if not isinstance(value, str) or not _NAME.match(value):

@@ -35,7 +35,8 @@ from __future__ import annotations
 import itertools
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from typing import Any
 
 from homecog.home.groups import Group, device_groups
 from homecog.home.model import Home
@@ -66,62 +67,88 @@ def group_choices(
     needs = frozenset(a for a in needed if a in group.service_index)
     mine = group.device_index  # the search runs over the group's devices only
     local = {d: k for k, d in enumerate(mine)}
-    want = [wanted[d] for d in mine]
     index = device_positions(home)
-    effects = {a: tuple((local[index[d]], v) for d, v in home.services[a].sets) for a in group.service_index}
-    # each service's prohibited rules: those whose context part matches, as (device, allowed) pairs
-    rules = {
-        a: [
-            tuple((local[d], allowed) for d, allowed in cond.devices)
-            for cond in home.prohibited[a]
-            if all(codes[f] in allowed for f, allowed in cond.features)
-        ]
-        for a in group.service_index
-    }
-
-    def forbidden(a: int, st: tuple[bool, ...]) -> bool:
-        return any(all(st[k] in allowed for k, allowed in rule) for rule in rules[a])
-
-    def distance(st: tuple[bool, ...], pending: frozenset[int]) -> int:
-        return sum(1 for k, w in enumerate(want) if w is not None and st[k] != w) + len(pending)
-
-    memo: dict[tuple[tuple[bool, ...], frozenset[int]], set[frozenset[int]]] = {}
-
-    def paths(st: tuple[bool, ...], pending: frozenset[int]) -> set[frozenset[int]]:
-        key = (st, pending)
-        if key in memo:
-            return memo[key]
-        d = distance(st, pending)
-        out: set[frozenset[int]] = {frozenset()} if d == 0 else set()
-        for a, effect in effects.items():
-            if d == 0 or len(out) >= limit or forbidden(a, st):
-                continue
-            if effect:
-                nxt = list(st)
-                for k, value in effect:
-                    nxt[k] = value
-                st2, pend2 = tuple(nxt), pending
-            else:
-                st2, pend2 = st, pending - {a}
-            # every device switched must have been wrong (see kernels.progressed)
-            broke = any(y != x and (w is None or x == w) for x, y, w in zip(st, st2, want, strict=True))
-            if distance(st2, pend2) < d and not broke:
-                out |= {rest | {a} for rest in paths(st2, pend2)}
-        memo[key] = out
-        return out
-
+    search = _Search(
+        want=[wanted[d] for d in mine],
+        effects={
+            a: tuple((local[index[d]], v) for d, v in home.services[a].sets) for a in group.service_index
+        },
+        # each service's prohibited rules: those whose context part matches, as (device, allowed) pairs
+        rules={
+            a: [
+                tuple((local[d], allowed) for d, allowed in cond.devices)
+                for cond in home.prohibited[a]
+                if all(codes[f] in allowed for f, allowed in cond.features)
+            ]
+            for a in group.service_index
+        },
+        limit=limit,
+    )
     start = tuple(bool(states[d]) for d in mine)
-    found = paths(start, needs)
-    if not found:  # conflicting rules: fall back to one setter per wrong device, no order
-        chosen = set(needs)
-        for k, w in enumerate(want):
-            if w is not None and start[k] != w:
-                setter = next((a for a, e in effects.items() if (k, w) in e), None)
-                if setter is not None:
-                    chosen.add(setter)
-        found = {frozenset(chosen)}
+    found = search.paths(start, needs) or search.fallback(start, needs)
     fewest = min(len(c) for c in found)
     return tuple(sorted((c for c in found if len(c) == fewest), key=lambda c: _key(home, c)))
+
+
+Effect = tuple[tuple[int, bool], ...]  # (device, state) pairs, by the group's device positions
+
+
+@dataclass
+class _Search:
+    """The search for one group's optimal sets in one context: every sequence of services in
+    which each is progress, none is prohibited and the needed ones are done, as sets."""
+
+    want: list[bool | None]
+    effects: dict[int, Effect]
+    rules: dict[int, list[tuple[tuple[int, Any], ...]]]
+    limit: int
+    memo: dict[tuple[tuple[bool, ...], frozenset[int]], set[frozenset[int]]] = field(default_factory=dict)
+
+    def forbidden(self, a: int, st: tuple[bool, ...]) -> bool:
+        return any(all(st[k] in allowed for k, allowed in rule) for rule in self.rules[a])
+
+    def distance(self, st: tuple[bool, ...], pending: frozenset[int]) -> int:
+        return sum(1 for k, w in enumerate(self.want) if w is not None and st[k] != w) + len(pending)
+
+    def paths(self, st: tuple[bool, ...], pending: frozenset[int]) -> set[frozenset[int]]:
+        """The sets that take ``st`` to the optimum with the ``pending`` needs done."""
+        key = (st, pending)
+        if key in self.memo:
+            return self.memo[key]
+        d = self.distance(st, pending)
+        out: set[frozenset[int]] = {frozenset()} if d == 0 else set()
+        for a, effect in self.effects.items():
+            if d == 0 or len(out) >= self.limit or self.forbidden(a, st):
+                continue
+            st2, pend2 = _apply(st, pending, a, effect)
+            # every device switched must have been wrong (see kernels.progressed)
+            broke = any(y != x and (w is None or x == w) for x, y, w in zip(st, st2, self.want, strict=True))
+            if self.distance(st2, pend2) < d and not broke:
+                out |= {rest | {a} for rest in self.paths(st2, pend2)}
+        self.memo[key] = out
+        return out
+
+    def fallback(self, start: tuple[bool, ...], needs: frozenset[int]) -> set[frozenset[int]]:
+        """Where conflicting rules leave no way: one setter per wrong device, no order."""
+        chosen = set(needs)
+        for k, w in enumerate(self.want):
+            if w is not None and start[k] != w:
+                setter = next((a for a, e in self.effects.items() if (k, w) in e), None)
+                if setter is not None:
+                    chosen.add(setter)
+        return {frozenset(chosen)}
+
+
+def _apply(
+    st: tuple[bool, ...], pending: frozenset[int], a: int, effect: Effect
+) -> tuple[tuple[bool, ...], frozenset[int]]:
+    """The states and pending needs after service ``a``: it switches, or it is a need done."""
+    if not effect:
+        return st, pending - {a}
+    nxt = list(st)
+    for k, value in effect:
+        nxt[k] = value
+    return tuple(nxt), pending
 
 
 def choices(home: Home, codes: Sequence[int], states: Sequence[bool], limit: int = 256) -> list[Choice]:

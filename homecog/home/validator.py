@@ -4,7 +4,17 @@ error naming the file, the key path and what was expected.
 The sections are validated by :class:`~homecog.home.context_section.ContextSection` (features)
 and :class:`~homecog.home.rule_sections.RuleSections` (comfort, needs, prohibited), with
 ``layout``, ``routine``, ``home_assistant`` and ``log`` in modules of their own; this module holds the
-rest (devices, services, rewards) and puts the home together.
+rest (devices, services, rewards) and puts the home together. :func:`load_home` and
+:func:`load_home_text` are the entry: a home found and read as YAML
+(:mod:`~homecog.home.home_file`), then validated.
+
+YAML 1.1 readers turn a bare ``on``/``off``/``yes``/``no`` into booleans; a home file is read
+with YAML 1.2 booleans (only true/false), so category names such as ``yes`` stay strings, and
+device states accept on/off, true/false and yes/no.
+
+>>> home = load_home("paper")
+>>> home.name, len(home.services), home.context_count
+('paper', 20, 2592)
 
 >>> HomeValidator("den.yaml").home({"name": "den", "context": {}})
 Traceback (most recent call last):
@@ -14,10 +24,13 @@ homecog.errors.HomeFileError: den.yaml: missing section 'devices'
 
 from __future__ import annotations
 
+from pathlib import Path
+
 from homecog.home.content import content_hash
 from homecog.home.context_section import ContextSection
 from homecog.home.floor import check_floor
 from homecog.home.home_assistant import parse_home_assistant
+from homecog.home.home_file import read_yaml, resolve_home
 from homecog.home.household import parse_household
 from homecog.home.layout import parse_layout
 from homecog.home.log_section import parse_log
@@ -178,3 +191,14 @@ class HomeValidator(ContextSection, RuleSections):
                 "rewards.magnitude", f"expected a positive number, got {format_number(magnitude)}"
             )
         return Rewards(magnitude=magnitude, **values)
+
+
+def load_home(name_or_path: str | Path) -> Home:
+    """Load a home by built-in name (``paper``) or path, validated."""
+    source, text = resolve_home(name_or_path)
+    return load_home_text(text, source)
+
+
+def load_home_text(text: str, source: str = "<home>") -> Home:
+    """Parse and validate the YAML text of a home; ``source`` names it in errors."""
+    return HomeValidator(source).home(read_yaml(text, source))

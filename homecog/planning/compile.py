@@ -96,17 +96,27 @@ def action_source(schema: ActionSchema) -> str:
     """The Python source of an action: lets, one test of every precondition, the effects."""
     where = f"action {schema.name}"
     scope = [name for name, _ in schema.params]
-    lines = [f"def {schema.name}({', '.join(['s', *scope])}):"]
-    for let in schema.lets:
-        assign, undefined = _let(let, scope, where)
-        lines += [f"    {assign}", f"    if {undefined}:", "        return None"]
-    if schema.pre:
-        tests = " and ".join(_test(p.literal, scope, where) for p in schema.pre)
-        lines += [f"    if not ({tests}):", "        return None"]
+    lines = [
+        f"def {schema.name}({', '.join(['s', *scope])}):",
+        *_guards(schema.lets, [p.literal for p in schema.pre], scope, where),
+    ]
     for effect in schema.effects:
         lines += ["    " + line for line in _effect(effect, scope, where)]
     lines.append("    return s")
     return "\n".join(lines)
+
+
+def _guards(lets: Sequence[Let], pre: Sequence[Literal], scope: list[str], where: str) -> list[str]:
+    """The lines that return ``None`` unless every let has a value and every precondition holds;
+    each let adds its variable to ``scope``."""
+    lines = []
+    for let in lets:
+        assign, undefined = _let(let, scope, where)
+        lines += [f"    {assign}", f"    if {undefined}:", "        return None"]
+    if pre:
+        tests = " and ".join(_test(p, scope, where) for p in pre)
+        lines += [f"    if not ({tests}):", "        return None"]
+    return lines
 
 
 def _format(template: str, scope: Sequence[str]) -> str:
@@ -149,13 +159,10 @@ def method_source(schema: MethodSchema, task: TaskSchema, name: str | None = Non
     the subtasks."""
     where = f"method {schema.name} of {task.name}"
     scope = [p for p, _ in task.params]
-    lines = [f"def {name or schema.name}({', '.join(['s', *scope])}):"]
-    for let in schema.lets:
-        assign, undefined = _let(let, scope, where)
-        lines += [f"    {assign}", f"    if {undefined}:", "        return None"]
-    if schema.pre:
-        tests = " and ".join(_test(p, scope, where) for p in schema.pre)
-        lines += [f"    if not ({tests}):", "        return None"]
+    lines = [
+        f"def {name or schema.name}({', '.join(['s', *scope])}):",
+        *_guards(schema.lets, schema.pre, scope, where),
+    ]
     subtasks = []
     for subtask in schema.subtasks:
         items = [repr(subtask[0]), *(_term(t, scope, where) for t in subtask[1:])]

@@ -56,14 +56,12 @@ from homecog.planning.schema import (
     method,
     parse_params,
 )
-from homecog.planning.state import HELD, USER, State
+from homecog.planning.state import HELD, USER
 
 __all__ = [
     "ACTIONS",
     "METHODS",
     "TASKS",
-    "USER",
-    "State",
     "make_domain",
     "on_off",
     "service_methods",

@@ -115,8 +115,13 @@ def home_names(home: Home, state: State | None = None) -> Names:
         places += [state.robot, state.user, *(p for p in state.objects.values() if p != HELD)]
     for place in places:
         names.add("place", place)
+    _add_messages(names, home)
+    return names
+
+
+def _add_messages(names: Names, home: Home) -> None:
+    """The spoken sentences: each a message constant named after its service."""
     for service, m in zip(home.services, service_methods(home), strict=True):
         for subtask in m.subtasks:
-            if subtask[0] == "speak":  # the sentence is a message constant named after the service
+            if subtask[0] == "speak":
                 names.add("message", subtask[1], f"{names.tasks[service.name]}-msg")
-    return names

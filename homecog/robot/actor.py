@@ -19,6 +19,7 @@ from typing import Any
 from homecog.context import ContextSource
 from homecog.errors import PlanningError
 from homecog.home.model import Home
+from homecog.home.states import state_word
 from homecog.planning import Acting, State, acting, make_domain
 from homecog.planning.state import device_states, observed_state
 from homecog.robot.attribution import Attribution
@@ -84,9 +85,7 @@ class Actor:
     def _settled_call(self, future: concurrent.futures.Future[Any], device: str, on: bool) -> None:
         failed = future.cancelled() or future.exception() is not None or future.result() is False
         if failed:
-            log.warning(
-                "the switch of %s %s failed; its report is not awaited", device, "on" if on else "off"
-            )
+            log.warning("the switch of %s %s failed; its report is not awaited", device, state_word(on))
             self.attribution.forget(device, on)
             self.settling.forget(device)
 

@@ -19,6 +19,8 @@ from collections import deque
 from dataclasses import dataclass, field
 from typing import Any
 
+from homecog.home.states import state_word
+
 
 @dataclass
 class RobotAction:
@@ -42,7 +44,7 @@ class RobotAction:
             "at": self.wall,
             "home_time": self.context.get("time"),
             "services": self.services,
-            "switches": [{"device": d, "state": "on" if on else "off"} for d, on in self.switches],
+            "switches": [{"device": d, "state": state_word(on)} for d, on in self.switches],
             "user": self.user,
             "why": self.why,
             "actions": self.done,

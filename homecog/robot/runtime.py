@@ -32,6 +32,7 @@ from homecog.errors import ContextError, FixedContextError, StoreError
 from homecog.home.codec import Space, json_context, parse_services
 from homecog.home.household import Household
 from homecog.home.model import Home, format_number
+from homecog.home.states import state_word
 from homecog.knowledge.ihdr import IHDRTree
 from homecog.knowledge.kinds import Kind
 from homecog.knowledge.store import Store
@@ -243,7 +244,7 @@ class Runtime:
     def _changes(self, service: str, now: Mapping[str, str]) -> bool:
         """Whether a service would change anything in the context (an errand always does)."""
         sets = self.home.services[self.home.service_index(service)].sets
-        return not sets or any(now.get(d) != ("on" if on else "off") for d, on in sets)
+        return not sets or any(now.get(d) != state_word(on) for d, on in sets)
 
     def act(
         self,
@@ -302,7 +303,7 @@ class Runtime:
             switched = []
             for device in dict.fromkeys(d for d, _ in reversed(action.switches)):
                 back = action.context.get(device) == "on"  # as it was before the robot acted
-                if now.get(device) == ("on" if back else "off") or device in action.undone:
+                if now.get(device) == state_word(back) or device in action.undone:
                     continue
                 if self.actor.switch(device, back) is None and getattr(self.source, "skips_switches", False):
                     continue  # Home Assistant away: not switched back
@@ -315,7 +316,7 @@ class Runtime:
                 if back_now.get(device) == action.context.get(device):
                     action.undone.setdefault(device, "hmi")
         self.publish("context", self.context())
-        switched = [{"device": d, "state": "on" if on else "off"} for d, on in switched]
+        switched = [{"device": d, "state": state_word(on)} for d, on in switched]
         return {"action": action.id, "switched": switched, "rejected": rejected, "user": user or action.user}
 
     def _changed(self, change: DeviceChange) -> None:

@@ -33,6 +33,7 @@ import numpy as np
 from homecog.errors import PlanningError
 from homecog.home.layout import Layout
 from homecog.home.model import Home
+from homecog.home.states import state_word
 from homecog.planning import Domain, State, initial_state, make_domain
 from homecog.simulation.grid import plan_path
 from homecog.simulation.robot import DiffDrive
@@ -83,7 +84,7 @@ class SimulationResult:
             "seconds": self.seconds,
             "distance_m": self.distance_m,
             "timeline": [dict(row, action=list(row["action"])) for row in self.timeline],
-            "devices": {d: "on" if v else "off" for d, v in self.devices.items()},
+            "devices": {d: state_word(v) for d, v in self.devices.items()},
         }
 
 

@@ -7,8 +7,8 @@ user is and whether they sleep is nobody else's business. It comes as
 sets (HttpOnly, SameSite=Strict, path ``/api``): the page's way, so that no script in the page,
 its own or one smuggled in by data, can read the token. ``GET /api/events`` also takes it as the
 query parameter ``access_token`` (RFC 6750 §2.3), for clients that can send neither. The server
-logs no URLs. Every check compares bytes in constant time (:func:`authorized`); a token is
-printable ASCII (:mod:`homecog.web.settings`), the same bytes in every header.
+logs no URLs. Every check compares bytes in constant time, in one function (:func:`matches`); a
+token is printable ASCII (:mod:`homecog.web.settings`), the same bytes in every header.
 """
 
 from __future__ import annotations
@@ -44,32 +44,45 @@ COOKIE = "homecog_token"
 MISSING = "this server needs its token: Authorization: Bearer <token>"
 
 
-def authorized(headers: list[tuple[bytes, bytes]], token: bytes | None, method: str = "GET") -> bool:
+def matches(given: bytes | str | None, token: str) -> bool:
+    """Whether ``given`` is the token, compared as bytes in constant time: the one comparison
+    of every check (a header, the cookie, the query parameter). A header may hold any byte; a
+    token is printable ASCII (:mod:`homecog.web.settings`), the same bytes in every header.
+
+    >>> matches("s3cret-token", "s3cret-token"), matches(b"s3cret-tokeN", "s3cret-token"), matches("é", "x")
+    (True, False, False)
+    """
+    if given is None:
+        return False
+    return hmac.compare_digest(given.encode() if isinstance(given, str) else given, token.encode())
+
+
+def authorized(headers: list[tuple[bytes, bytes]], token: str | None, method: str = "GET") -> bool:
     """Whether raw ASGI ``headers`` carry ``token``: as a bearer, or in the cookie. The cookie
     opens a request that changes something (any method but GET and HEAD) only from the page's
     own origin (``Origin`` is the server's), so that no other page a browser shows (another
     site, or another server on this machine) can make the browser act with it.
 
-    >>> authorized([(b"authorization", b"Bearer s3cret-token")], b"s3cret-token")
+    >>> authorized([(b"authorization", b"Bearer s3cret-token")], "s3cret-token")
     True
-    >>> authorized([(b"authorization", b"Bearer s3cret-tokeN")], b"s3cret-token")
+    >>> authorized([(b"authorization", b"Bearer s3cret-tokeN")], "s3cret-token")
     False
     >>> cookie = (b"cookie", b"a=1; homecog_token=s3cret-token")
-    >>> authorized([cookie], b"s3cret-token"), authorized([cookie], b"s3cret-token", "POST")
+    >>> authorized([cookie], "s3cret-token"), authorized([cookie], "s3cret-token", "POST")
     (True, False)
     >>> own = [cookie, (b"host", b"robot:8000"), (b"origin", b"http://robot:8000")]
-    >>> authorized(own, b"s3cret-token", "POST")
+    >>> authorized(own, "s3cret-token", "POST")
     True
     """
     if token is None:
         return True
     found = dict(headers)
     scheme, _, given = found.get(b"authorization", b"").partition(b" ")
-    if scheme.lower() == b"bearer" and hmac.compare_digest(given.strip(), token):
+    if scheme.lower() == b"bearer" and matches(given.strip(), token):
         return True
     for part in found.get(b"cookie", b"").split(b";"):
         key, _, given = part.strip().partition(b"=")
-        if key == COOKIE.encode() and hmac.compare_digest(given, token):
+        if key == COOKIE.encode() and matches(given, token):
             origin, host = found.get(b"origin"), found.get(b"host", b"")
             return method in ("GET", "HEAD") or origin in (b"http://" + host, b"https://" + host)
     return False
@@ -94,15 +107,6 @@ def get_store(runtime: RuntimeDep) -> Store:
 StoreDep = Annotated[Store, Depends(get_store)]
 
 
-def matches(given: str | None, token: str) -> bool:
-    """Whether ``given`` is the token, in constant time (bytes: headers may hold any character).
-
-    >>> matches("s3cret-token", "s3cret-token"), matches("s3cret-tokeN", "s3cret-token"), matches("é", "x")
-    (True, False, False)
-    """
-    return given is not None and hmac.compare_digest(given.encode(), token.encode())
-
-
 def require_token(
     request: Request,
     settings: SettingsDep,
@@ -111,9 +115,7 @@ def require_token(
 ) -> None:
     """401 unless the request carries the server's token (a bearer, or the cookie:
     :func:`authorized`)."""
-    if settings.token is not None and not authorized(
-        request.scope["headers"], settings.token.encode(), request.method
-    ):
+    if not authorized(request.scope["headers"], settings.token, request.method):
         raise HTTPException(401, detail=MISSING, headers={"WWW-Authenticate": "Bearer"})
 
 
@@ -127,7 +129,7 @@ def require_token_or_query(
     """As :func:`require_token`, the token also taken from ``?access_token=``."""
     if settings.token is None or matches(access_token, settings.token):
         return
-    if not authorized(request.scope["headers"], settings.token.encode(), request.method):
+    if not authorized(request.scope["headers"], settings.token, request.method):
         raise HTTPException(
             401, detail=f"{MISSING} (or ?access_token=<token>)", headers={"WWW-Authenticate": "Bearer"}
         )

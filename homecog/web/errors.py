@@ -139,22 +139,46 @@ def validation_message(errors: Any, home: Home) -> str:
         return "invalid request"
     e = errors[0]
     loc = [str(p) for p in e.get("loc", ())]
-    kind, given, names = e.get("type", ""), e.get("input"), home.feature_names + home.device_names
+    kind = e.get("type", "")
     where = loc[1:] if loc and loc[0] in ("body", "query", "path", "header") else loc
     if kind == "json_invalid":
         at = f" at character {where[0]}" if where else ""
         return f"body: invalid JSON{at}: {(e.get('ctx') or {}).get('error', 'cannot be read')}"
-    if len(where) >= 2 and where[0] in ("context", "values") and where[1] in names:
-        if kind == "missing":
-            return f"missing {where[1]}"
-        return context_value_message(home, where[1], given)
-    if len(where) == 2 and where[0] in ("context", "values") and kind == "extra_forbidden":
+    message = _context_message(e, where, home) or _services_message(e, where, home)
+    if message is not None:
+        return message
+    if not where and kind in ("model_attributes_type", "dict_type", "model_type"):
+        return "body: expected a JSON object"
+    msg = str(e.get("msg", "invalid"))
+    return f"{'.'.join(where) or 'body'}: {msg[:1].lower()}{msg[1:]}"
+
+
+def _context_message(e: Any, where: list[str], home: Home) -> str | None:
+    """The error ``e`` at ``where`` in the home's words, when it is about a context (or values);
+    else None."""
+    if not where or where[0] not in ("context", "values"):
+        return None
+    kind, names = e.get("type", ""), home.feature_names + home.device_names
+    if len(where) >= 2 and where[1] in names:
+        return (
+            f"missing {where[1]}"
+            if kind == "missing"
+            else context_value_message(home, where[1], e.get("input"))
+        )
+    if len(where) == 2 and kind == "extra_forbidden":
         return f"unknown feature or device {where[1]!r}; expected {', '.join(names)}"
-    if where and where[0] in ("context", "values") and kind.endswith(("dict_type", "typed_dict_type")):
+    if kind.endswith(("dict_type", "typed_dict_type")):
         which = "every feature and device" if where[0] == "context" else "features or devices"
         return f"{where[0]}: expected an object with {which} of the home"
+    return None
+
+
+def _services_message(e: Any, where: list[str], home: Home) -> str | None:
+    """The error ``e`` at ``where`` in the home's words, when it is about services, a correction
+    or a user; else None."""
+    kind, given, known = e.get("type", ""), e.get("input"), ", ".join(home.service_names)
     if len(where) == 2 and where[0] in ("want", "services") and kind == "literal_error":
-        known = ", ".join(home.service_names)  # the words of parse_services and of the planner
+        # the words of parse_services and of the planner
         return f"unknown service {given!r}; " + (
             f"expected some of {known}" if where[0] == "want" else f"the home has {known}"
         )
@@ -162,16 +186,18 @@ def validation_message(errors: Any, home: Home) -> str:
         return str(e.get("msg", "invalid correction"))
     if kind == "user_name":
         return f"{'.'.join(where) or 'user'}: {e.get('msg')}"
+    return _change_message(kind, given, where, known)
+
+
+def _change_message(kind: str, given: object, where: list[str], known: str) -> str | None:
+    """A ``change`` of a correction refused, in the home's words (``known``: its services)."""
     if len(where) == 2 and where[0] == "change" and kind == "extra_forbidden":
-        return f"unknown service {where[1]!r}; expected some of {', '.join(home.service_names)}"
+        return f"unknown service {where[1]!r}; expected some of {known}"
     if len(where) == 2 and where[0] == "change" and kind == "literal_error":
         return f'change: {where[1]}: expected "add" or "reject", not {given!r}'
     if where == ["change"] and kind.endswith(("dict_type", "typed_dict_type")):
         return 'change: expected an object of services, each "add" or "reject"'
-    if not where and kind in ("model_attributes_type", "dict_type", "model_type"):
-        return "body: expected a JSON object"
-    msg = str(e.get("msg", "invalid"))
-    return f"{'.'.join(where) or 'body'}: {msg[:1].lower()}{msg[1:]}"
+    return None
 
 
 def context_value_message(home: Home, name: str, given: object) -> str:

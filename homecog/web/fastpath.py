@@ -20,8 +20,6 @@ from homecog.robot.runtime import Runtime
 from homecog.web.deps import authorized
 from homecog.web.settings import MAX_BODY
 
-__all__ = ["MAX_BODY", "BodyLimit", "CognizeFastPath"]
-
 
 class CognizeFastPath:
     """Pure ASGI middleware answering valid ``POST /api/cognize`` requests itself, the hot path
@@ -31,7 +29,7 @@ class CognizeFastPath:
         self.app = app
         self.runtime = runtime
         self.model = model  # the home's CognizeIn
-        self.token = None if token is None else token.encode()
+        self.token = token
 
     async def __call__(self, scope: dict[str, Any], receive: Any, send: Any) -> None:
         if scope["type"] != "http" or scope["path"] != "/api/cognize" or scope["method"] != "POST":

@@ -62,8 +62,8 @@ FLEET_ERRORS = (404, 409, 503)
 def create_app(runtime: Runtime, settings: Settings | None = None, *, fleet: bool = False) -> ASGIApp:
     """The ASGI application serving ``runtime``.
 
-    It is the FastAPI application (routes, OpenAPI), reached as ``.app.app``, behind two plain
-    ASGI layers: the body limit, then the fast path of ``POST /api/cognize``. With
+    It is the FastAPI application (routes, OpenAPI; :func:`api`) behind two plain ASGI layers:
+    the body limit, then the fast path of ``POST /api/cognize``. With
     ``settings.live``, the server's clock moves the home that many simulated seconds per real
     second, and the robot acts on what it proposes. ``fleet``: one home of ``homecog serve``
     (:mod:`homecog.fleet.serve`): only the routes whose state the database holds (the home,
@@ -120,6 +120,14 @@ def create_app(runtime: Runtime, settings: Settings | None = None, *, fleet: boo
     # in front of FastAPI's own middleware stack, whose error middleware alone wraps every send
     fast = CognizeFastPath(app, runtime, models.cognize_in, settings.token)
     return BodyLimit(fast, limit=settings.max_body)
+
+
+def api(app: ASGIApp) -> FastAPI:
+    """The FastAPI application of an app :func:`create_app` made (its routes and OpenAPI),
+    behind the plain ASGI layers in front of it."""
+    while not isinstance(app, FastAPI):
+        app = app.app  # type: ignore[attr-defined]  # BodyLimit, CognizeFastPath
+    return app
 
 
 async def _live(runtime: Runtime, speed: float, period: float = 1.0) -> None:

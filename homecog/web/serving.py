@@ -72,74 +72,79 @@ async def _send_json(send: Any, status: int, detail: str) -> None:
     await send({"type": "http.response.body", "body": body})
 
 
-def timed_protocol(timeout: float) -> type[HttpToolsProtocol]:
-    """uvicorn's HTTP/1.1 protocol (httptools), with a deadline for each request to arrive whole
-    and a bound on the size of its headers."""
+class TimedProtocol(HttpToolsProtocol):
+    """uvicorn's HTTP/1.1 protocol (httptools), with a deadline of :attr:`timeout` seconds for
+    each request to arrive whole and a bound on the size of its headers."""
 
-    class TimedProtocol(HttpToolsProtocol):
-        def connection_made(self, transport: Any) -> None:  # type: ignore[override]
-            super().connection_made(transport)
-            self._deadline: Any = None
-            self._header_bytes: int | None = 0  # None: the headers are in
+    timeout: float = 5.0  # seconds; Settings.request_timeout through timed_protocol
+
+    def connection_made(self, transport: Any) -> None:  # type: ignore[override]
+        super().connection_made(transport)
+        self._deadline: Any = None
+        self._header_bytes: int | None = 0  # None: the headers are in
+        self._arm()
+
+    def data_received(self, data: bytes) -> None:
+        if self._deadline is None:  # the first bytes of a request on a kept-alive connection
+            self._arm()
+        if self._header_bytes is not None:
+            self._header_bytes += len(data)
+            if self._header_bytes > MAX_HEADERS:
+                return self._refuse(431, "request headers over 64 KiB")
+        super().data_received(data)
+
+    def on_message_begin(self) -> None:
+        super().on_message_begin()
+        self._header_bytes = 0
+        if self._deadline is None:  # a request pipelined behind one that came whole
             self._arm()
 
-        def data_received(self, data: bytes) -> None:
-            if self._deadline is None:  # the first bytes of a request on a kept-alive connection
-                self._arm()
-            if self._header_bytes is not None:
-                self._header_bytes += len(data)
-                if self._header_bytes > MAX_HEADERS:
-                    return self._refuse(431, "request headers over 64 KiB")
-            super().data_received(data)
+    def on_headers_complete(self) -> None:
+        self._header_bytes = None
+        super().on_headers_complete()
 
-        def on_message_begin(self) -> None:
-            super().on_message_begin()
-            self._header_bytes = 0
-            if self._deadline is None:  # a request pipelined behind one that came whole
-                self._arm()
+    def on_message_complete(self) -> None:
+        super().on_message_complete()
+        self._disarm()  # the request is in: the app takes its time to answer
 
-        def on_headers_complete(self) -> None:
-            self._header_bytes = None
-            super().on_headers_complete()
+    def connection_lost(self, exc: Exception | None) -> None:
+        self._disarm()
+        super().connection_lost(exc)
 
-        def on_message_complete(self) -> None:
-            super().on_message_complete()
-            self._disarm()  # the request is in: the app takes its time to answer
+    def _arm(self) -> None:
+        self._disarm()
+        self._deadline = self.loop.call_later(self.timeout, self._too_slow)
 
-        def connection_lost(self, exc: Exception | None) -> None:
-            self._disarm()
-            super().connection_lost(exc)
-
-        def _arm(self) -> None:
-            self._disarm()
-            self._deadline = self.loop.call_later(timeout, self._too_slow)
-
-        def _disarm(self) -> None:
-            if self._deadline is not None:
-                self._deadline.cancel()
-                self._deadline = None
-
-        def _too_slow(self) -> None:
+    def _disarm(self) -> None:
+        if self._deadline is not None:
+            self._deadline.cancel()
             self._deadline = None
-            self._refuse(408, f"the request did not arrive whole within {timeout:g} s")
 
-        def _refuse(self, status: int, detail: str) -> None:
-            """Answer ``status`` unless an answer has begun, and close the connection."""
-            if self.transport.is_closing():
-                return
-            cycle = self.cycle
-            if cycle is None or not cycle.response_started:
-                body = json.dumps({"detail": detail}).encode()
-                reason = {408: b"Request Timeout", 431: b"Request Header Fields Too Large"}[status]
-                self.transport.write(
-                    b"HTTP/1.1 %d %s\r\ncontent-type: application/json\r\ncontent-length: %d\r\n"
-                    b"connection: close\r\n\r\n%s" % (status, reason, len(body), body)
-                )
-                if cycle is not None:
-                    cycle.response_started = cycle.response_complete = True  # the app's answer is moot
-            self.transport.close()
+    def _too_slow(self) -> None:
+        self._deadline = None
+        self._refuse(408, f"the request did not arrive whole within {self.timeout:g} s")
 
-    return TimedProtocol
+    def _refuse(self, status: int, detail: str) -> None:
+        """Answer ``status`` unless an answer has begun, and close the connection."""
+        if self.transport.is_closing():
+            return
+        cycle = self.cycle
+        if cycle is None or not cycle.response_started:
+            body = json.dumps({"detail": detail}).encode()
+            reason = {408: b"Request Timeout", 431: b"Request Header Fields Too Large"}[status]
+            self.transport.write(
+                b"HTTP/1.1 %d %s\r\ncontent-type: application/json\r\ncontent-length: %d\r\n"
+                b"connection: close\r\n\r\n%s" % (status, reason, len(body), body)
+            )
+            if cycle is not None:
+                cycle.response_started = cycle.response_complete = True  # the app's answer is moot
+        self.transport.close()
+
+
+def timed_protocol(timeout: float) -> type[TimedProtocol]:
+    """:class:`TimedProtocol` with a deadline of ``timeout`` seconds, as uvicorn takes it (a
+    class it makes one of for each connection)."""
+    return type("TimedProtocol", (TimedProtocol,), {"timeout": timeout})
 
 
 def guarded(app: Any, settings: Settings) -> Any:
