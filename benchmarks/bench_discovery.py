@@ -108,7 +108,7 @@ def measure(
     server: HomeAssistant, changes: StateChanges, broker: str, home, folder: Path, args: argparse.Namespace
 ) -> list[tuple[str, list[float]]]:
     prefix = f"homecog_b{secrets.token_hex(4)}"
-    store = Store(f"sqlite:///{folder / 'k.sqlite'}", home)
+    store = Store.open(f"sqlite:///{folder / 'k.sqlite'}", home)
     source = ManualSource(home)
     source.set_context(WORK)
     household = dataclasses.replace(home.household, hold=0.0)

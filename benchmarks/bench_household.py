@@ -51,7 +51,7 @@ def loops(days: int, console: Console) -> None:
     first = None
     for home_name, truth_name, start in PAIRS:
         home, truth = load_home(home_name), load_home(truth_name)
-        store = Store("sqlite://", home)
+        store = Store.open("sqlite://", home)
         result = closed_loop(home, truth, store, open_tree(home, store), days=days, start=start)
         store.close()
         first = first or result
@@ -84,7 +84,7 @@ def loops(days: int, console: Console) -> None:
 def latency(switches: int, console: Console) -> None:
     home = load_home("paper")
     with tempfile.TemporaryDirectory() as folder:
-        store = Store(f"sqlite:///{folder}/k.sqlite", home)
+        store = Store.open(f"sqlite:///{folder}/k.sqlite", home)
         source = ManualSource(home)
         runtime = Runtime(home=home, store=store, tree=open_tree(home, store), source=source)
         rng = random.Random(0)

@@ -81,7 +81,7 @@ def drop_database(admin_url: str, name: str) -> None:
 
 def corrections(url: str, tree: IHDRTree, samples: SampleSet, n: int) -> tuple[float, float]:
     """p50, p99 seconds to commit a correction (the store's whole transaction)."""
-    store = Store(url, tree.home)
+    store = Store.open(url, tree.home)
     store.save_build(tree, samples)
     live = store.load_tree()
     scenarios = random_scenarios(tree.home, n, seed=11)

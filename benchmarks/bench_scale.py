@@ -62,7 +62,7 @@ def cognition_p50(home_file: Path, env: dict[str, str], n: int = 2000) -> float:
         "from homecog.home import load_home\n"
         "from homecog.knowledge.store import Store\n"
         "from homecog.evaluation.scenarios import random_scenarios\n"
-        "home = load_home(sys.argv[1]); store = Store(None, home); tree = store.load_tree()\n"
+        "home = load_home(sys.argv[1]); store = Store.open(None, home); tree = store.load_tree()\n"
         "xs = [s.context for s in random_scenarios(home, int(sys.argv[2]), seed=11)]\n"
         "tree.explain_one(xs[0]); ts = []\n"
         "for x in xs:\n"

@@ -22,7 +22,8 @@ import numpy as np
 from rich.console import Console
 from rich.table import Table
 
-from homecog.environment.core import Core, greedy_outcomes
+from homecog.environment.core import Core
+from homecog.environment.reachability import greedy_outcomes
 from homecog.home import load_home
 from homecog.learning.grouped import train_policy
 from homecog.learning.qtable import QTable

@@ -41,3 +41,11 @@ def reference_distance(
 ) -> int:
     wanted = home.wanted(codes)
     return sum(1 for s, w in zip(states, wanted, strict=True) if w is not None and s != w) + len(pending)
+
+
+def parse_hardware_code(code: str) -> tuple[bool, ...]:
+    """Device states from the paper's notation (1 = on/open, 2 = off/closed, Table 4): the
+    inverse of :func:`homecog.home.encoding.hardware_code`."""
+    if any(ch not in "12" for ch in code):
+        raise ValueError(f"hardware code {code!r} must consist of 1 (on) and 2 (off)")
+    return tuple(ch == "1" for ch in code)

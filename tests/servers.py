@@ -141,7 +141,7 @@ def correction_worker(url: str, user: str, n: int, seed: int) -> list[tuple[list
     from homecog.knowledge.store import Store
 
     home = load_home(STUDIO)
-    store = Store(url, home)
+    store = Store.open(url, home)
     try:
         tree = store.load_tree()
         rng = random.Random(seed)
@@ -163,7 +163,7 @@ def correct_forever(url: str, user: str, seed: int) -> None:
     from homecog.knowledge.store import Store
 
     home = load_home(STUDIO)
-    store = Store(url, home)
+    store = Store.open(url, home)
     tree = store.load_tree()
     rng = random.Random(seed)
     names = list(home.service_names)

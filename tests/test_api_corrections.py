@@ -38,7 +38,7 @@ RELAX = {
 @pytest.fixture(scope="module")
 def built(tmp_path_factory):
     home = load_home_text(STUDIO.read_text() + LAYOUT, "studio.yaml")
-    store = Store(f"sqlite:///{tmp_path_factory.mktemp('corrections') / 'knowledge.sqlite'}", home)
+    store = Store.open(f"sqlite:///{tmp_path_factory.mktemp('corrections') / 'knowledge.sqlite'}", home)
     build(home, store)
     yield home, store
     store.close()

@@ -37,7 +37,7 @@ def studio_runtime(directory: Path, text: str | None = None) -> Runtime:
         pytest.skip("no chromium on this machine (Debian package chromium; .ci/run installs it)")
     pytest.importorskip("playwright.sync_api", reason="playwright is not installed")
     home = load_home_text(text or STUDIO.read_text() + LAYOUT, "studio.yaml")
-    store = Store(f"sqlite:///{directory / 'knowledge.sqlite'}", home)
+    store = Store.open(f"sqlite:///{directory / 'knowledge.sqlite'}", home)
     tree = build(home, store).tree
     runtime = Runtime(home=home, store=store, tree=tree, source=ManualSource(home))
     runtime.set_context({"time": "10:00", "light": 50, "activity": "work"})

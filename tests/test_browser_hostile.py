@@ -40,7 +40,7 @@ def hostile(tmp_path_factory):
     pytest.importorskip("playwright.sync_api", reason="playwright is not installed")
     home = load_home_text(hostile_home(), "hostile.yaml")
     assert home.feature("light").unit == UNIT and VALUE in home.feature("activity").values
-    store = Store(f"sqlite:///{tmp_path_factory.mktemp('hostile') / 'k.sqlite'}", home)
+    store = Store.open(f"sqlite:///{tmp_path_factory.mktemp('hostile') / 'k.sqlite'}", home)
     runtime = Runtime(home=home, store=store, tree=build(home, store).tree, source=ManualSource(home))
     runtime.set_context({"time": "10:00", "light": 50, "activity": VALUE})
     runtime.correct(runtime.context(), ["RadioOn"], USER)  # the user's correction, in the history

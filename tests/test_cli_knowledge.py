@@ -87,7 +87,7 @@ def test_cognize_and_correct(built, capsys):
 
 
 def _snapshot(db):
-    store = Store(db, load_home(STUDIO))
+    store = Store.open(db, load_home(STUDIO))
     try:
         return store.counts(), store.load_tree().signature()
     finally:
@@ -163,7 +163,7 @@ def test_wrong_and_unreachable_database_urls(capsys, tmp_path):
     for url, message in [
         ("nosuchdb://x", "not a database URL"),
         ("postgresql+psycopg://postgres@127.0.0.1:1/x", "cannot use the database"),
-        (f"sqlite:///{tmp_path / 'file.txt' / 'x.sqlite'}", "--db sqlite:///"),
+        (f"sqlite:///{tmp_path / 'file.txt' / 'x.sqlite'}", "database sqlite:///"),
     ]:
         if url.startswith("sqlite"):
             (tmp_path / "file.txt").write_text("not a directory")
@@ -254,7 +254,7 @@ def test_correct_add_and_reject_keep_the_other_services(built, capsys, tmp_path)
     assert code == 0 and json.loads(out)["rejected"] == ["BringTea"] and json.loads(out)["added"] == []
     assert cognize("kim") == ["LampOn", "RadioOn", "RaiseBlind"]
     assert cognize("ann") == before  # for that user only
-    store = Store(db, load_home(STUDIO))
+    store = Store.open(db, load_home(STUDIO))
     from homecog.knowledge.history import correction_history
 
     kinds = [(c.kind, c.want, c.concerns) for c in correction_history(store).corrections]

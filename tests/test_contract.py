@@ -44,7 +44,7 @@ PAPER_CONTEXT = {
 
 def paper_schema(token: str | None = None) -> dict:
     home = load_home("paper")
-    store = Store("sqlite://", home)
+    store = Store.open("sqlite://", home)
     runtime = Runtime(home=home, store=store, tree=IHDRTree(home), source=ManualSource(home))
     return TestClient(create_app(runtime, Settings(token=token))).get("/openapi.json").json()
 

@@ -50,7 +50,7 @@ def write(path: Path, rows: list[str], header: str = HEADER) -> Path:
 
 
 def snapshot(db: str) -> tuple:
-    store = Store(db, load_home(STUDIO))
+    store = Store.open(db, load_home(STUDIO))
     try:
         return store.counts(), store.load_tree().signature()
     finally:
@@ -82,13 +82,13 @@ def test_batches_store_what_single_corrections_store(built, db, tmp_path, capsys
     shutil.copy(built, tmp_path / "one.sqlite")
     one = f"sqlite:///{tmp_path / 'one.sqlite'}"
     home = load_home(STUDIO)
-    store = Store(one, home)
+    store = Store.open(one, home)
     tree = store.load_tree()
     for c in read_corrections(events, home, "default"):
         store.correct(tree, c.point, c.want, c.user)
     store.close()
     assert snapshot(one) == snapshot(db)
-    store = Store(db, home)
+    store = Store.open(db, home)
     try:
         assert store.rebuild().signature() == store.load_tree().signature()
     finally:
@@ -166,7 +166,7 @@ def test_a_failed_batch_stores_nothing(db):
         }
     )
     before = snapshot(db)
-    store = Store(db, home)
+    store = Store.open(db, home)
     tree = store.load_tree()
 
     def fail_after_a_correction() -> None:
@@ -190,7 +190,7 @@ def test_events_learned_keep_the_recent_past_of_the_stream(db, tmp_path):
     assert second.value("minutes since previous") == "1-4h" and second.value("minutes in activity") == "1-4h"
     assert fourth.value("previous activity") == "sleep" and fourth.value("weekday") == "mon"
     assert main(["correct", "--home", STUDIO, "--db", db, "--events", str(tmp_path / "e.csv"), "--json"]) == 0
-    store = Store(db, studio)
+    store = Store.open(db, studio)
     try:
         stored = store.rebuild().user_examples("kim")
     finally:

@@ -136,7 +136,7 @@ def test_a_household_is_learned_from_its_corrections(kind):
 
 def test_the_log_rebuilds_every_users_answers_exactly(tmp_path):
     t = fresh("studio")
-    store = Store(f"sqlite:///{tmp_path}/k.sqlite", t.home)
+    store = Store.open(f"sqlite:///{tmp_path}/k.sqlite", t.home)
     store.save_build(t, samples("studio"))
     live = store.load_tree()
     contexts = random_scenarios(t.home, 200, seed=12)

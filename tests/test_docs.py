@@ -291,7 +291,7 @@ def test_every_path_of_the_api_schemas_is_in_the_api_reference(tmp_path):
     from homecog.web.settings import Settings
 
     home = load_home_text((ROOT / "tests" / "homes" / "studio.yaml").read_text() + LAYOUT, "studio.yaml")
-    store = Store(f"sqlite:///{tmp_path / 'k.sqlite'}", home)
+    store = Store.open(f"sqlite:///{tmp_path / 'k.sqlite'}", home)
     try:
         runtime = Runtime(home=home, store=store, tree=build(home, store).tree, source=ManualSource(home))
         up = (

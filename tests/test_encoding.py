@@ -6,17 +6,16 @@ import itertools
 
 import numpy as np
 import pytest
+from reference import parse_hardware_code
 
 from homecog.errors import ContextError
 from homecog.home.clock import parse_clock
-from homecog.home.encoding import (
-    coded,
-    context_codes,
-    context_index,
-    hardware_code,
-    paper_index,
-    parse_hardware_code,
-)
+from homecog.home.encoding import coded, context_codes, context_index, hardware_code
+
+
+def paper_index(codes: tuple[int, ...]) -> int:
+    """The paper's Eq. 2 (with 1-based ``num``): collides; kept to show why we do not use it."""
+    return sum(k * 2**i for i, k in enumerate(codes))
 
 
 def test_table1_coding(paper):

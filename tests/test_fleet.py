@@ -177,7 +177,7 @@ def test_a_local_ray_learns_two_homes_as_the_serial_run_does(tmp_path):
     for home in homes:  # the same seed: the same tree wherever it was learned
         trees = []
         for url in (ray_url, serial_url):
-            store = Store(url, home)
+            store = Store.open(url, home)
             trees.append(store.load_tree().signature())
             store.close()
         assert trees[0] == trees[1]
@@ -263,7 +263,7 @@ def _assert_complete_or_absent(url: str, homes: list[Home]) -> list[str]:
         assert r["built"] and r["nodes"] > 0 and r["clusters"] > 0 and r["experiences"] > 0, (name, r)
     for home in homes:
         if home.name in rows:
-            store = Store(url, home)
+            store = Store.open(url, home)
             try:
                 assert store.rebuild().signature() == store.load_tree().signature()
             finally:
@@ -334,7 +334,7 @@ def test_a_one_home_database_of_schema_0002_moves_to_the_keyed_form(
 ) -> None:
     """The rows of a 0002 database (one home, no home column) get the home's name from its
     ``homes`` row; the tree, its users' layers, the log and the counts are as they were."""
-    source = Store(f"sqlite:///{tmp_path / 'source.sqlite'}", studio)
+    source = Store.open(f"sqlite:///{tmp_path / 'source.sqlite'}", studio)
     tree = build(studio, source, q_path=studio_build).tree
     context = {
         "time": "10:00",
@@ -370,7 +370,7 @@ def test_a_one_home_database_of_schema_0002_moves_to_the_keyed_form(
                 rows.sort(key=lambda r: r.get("id", 0))
             conn.execute(insert(table), rows)
     engine.dispose()
-    store = Store(db_url, studio)  # migrates
+    store = Store.open(db_url, studio)  # migrates
     try:
         assert (store.load_tree().signature(), store.counts(), store.experience_count()) == before
         assert store.rebuild().signature() == before[0]

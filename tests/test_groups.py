@@ -14,7 +14,8 @@ import numpy as np
 import pytest
 
 from homecog.environment.conflicts import find_conflicts
-from homecog.environment.core import Core, greedy_outcomes
+from homecog.environment.core import Core
+from homecog.environment.reachability import greedy_outcomes
 from homecog.errors import HomeTooLargeError, QTableError
 from homecog.home import load_home, load_home_text
 from homecog.home.classes import group_classes

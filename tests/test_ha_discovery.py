@@ -105,7 +105,7 @@ def robot(ha: Instance, tmp_path: Path) -> Iterator[Robot]:
     under a prefix of its own; every decision's moment recorded before it is announced."""
     home = load_home(HOMES / "studio.yaml")
     prefix = f"homecog_t{secrets.token_hex(4)}"
-    store = Store(f"sqlite:///{tmp_path / 'k.sqlite'}", home)
+    store = Store.open(f"sqlite:///{tmp_path / 'k.sqlite'}", home)
     source = ManualSource(home)
     source.set_context(WORK)
     household = dataclasses.replace(home.household, hold=0.0)  # the person's hold ends with the situation

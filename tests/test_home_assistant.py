@@ -167,7 +167,7 @@ def test_the_running_robot_acts_through_home_assistant(
     from homecog.web.main import create_app
 
     home = source.home
-    store = Store(f"sqlite:///{tmp_path / 'k.sqlite'}", home)
+    store = Store.open(f"sqlite:///{tmp_path / 'k.sqlite'}", home)
     try:
         tree = build(home, store, q_path=studio_build).tree
         runtime = Runtime(home=home, store=store, tree=tree, source=source)

@@ -93,7 +93,7 @@ def test_nothing_is_written_outside_the_data_directory(tmp_path):
             "--db",
             f"sqlite:///{nowhere}/k.sqlite",
         ],
-        f"--db sqlite:///{nowhere}/k.sqlite: no folder {nowhere}; make it first",
+        f"database sqlite:///{nowhere}/k.sqlite: no folder {nowhere}; make it first",
         env,
     )
     assert sorted(p.name for p in tmp_path.iterdir()) == ["homes"] and not (tmp_path / "no").exists()
@@ -172,7 +172,7 @@ def test_a_malformed_context_says_which_entry():
 @pytest.fixture
 def built_db(tmp_path, studio, studio_build) -> str:
     url = f"sqlite:///{tmp_path / 'k.sqlite'}"
-    store = Store(url, studio)
+    store = Store.open(url, studio)
     try:
         build(studio, store, q_path=studio_build)
     finally:
@@ -190,7 +190,7 @@ def events_file(path: Path, users: list[str]) -> Path:
 
 
 def experiences(url: str, studio) -> int:
-    store = Store(url, studio)
+    store = Store.open(url, studio)
     try:
         return store.experience_count()
     finally:

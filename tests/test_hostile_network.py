@@ -39,7 +39,7 @@ TOKEN = "hostile-token-1"
 @pytest.fixture(scope="module")
 def runtime(tmp_path_factory):
     home = load_home_text(STUDIO.read_text() + LAYOUT, "studio.yaml")
-    store = Store(f"sqlite:///{tmp_path_factory.mktemp('hostile') / 'k.sqlite'}", home)
+    store = Store.open(f"sqlite:///{tmp_path_factory.mktemp('hostile') / 'k.sqlite'}", home)
     runtime = Runtime(home=home, store=store, tree=IHDRTree(home), source=ManualSource(home))
     runtime.set_context({"time": "10:00", "light": 50, "activity": "work"})
     yield runtime
@@ -267,7 +267,7 @@ def test_users_of_two_spellings_are_two_users_on_every_server(fleet_url):
     finally:
         fleet.close()
     home = load_home_text(source, "paper0")
-    one, other = Store(fleet_url, home), Store(fleet_url, home)  # two servers' stores
+    one, other = Store.open(fleet_url, home), Store.open(fleet_url, home)  # two servers' stores
     try:
         tree, elsewhere = one.load_tree(), other.load_tree()
         base = {

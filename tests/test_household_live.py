@@ -114,7 +114,7 @@ def record_verdicts(runtime: Runtime) -> list[tuple[str, bool, str]]:
 
 
 def runtime_for(home: Home, source: Any, db: Path) -> tuple[Runtime, Store]:
-    store = Store(f"sqlite:///{db}", home)
+    store = Store.open(f"sqlite:///{db}", home)
     tree = build(home, store).tree  # the Q table is learned once a session (under a second)
     return Runtime(home=home, store=store, tree=tree, source=source), store
 

@@ -37,7 +37,7 @@ def rooms8_file(tmp_path_factory: pytest.TempPathFactory) -> Path:
 @pytest.fixture(scope="module")
 def built(rooms8: Home, tmp_path_factory: pytest.TempPathFactory) -> tuple[Store, IHDRTree]:
     db = tmp_path_factory.mktemp("rooms8db") / "k.sqlite"
-    store = Store(f"sqlite:///{db}", rooms8)
+    store = Store.open(f"sqlite:///{db}", rooms8)
     result = build(rooms8, store)
     assert result.samples == _samples(rooms8)  # every start state of every group, over its classes
     return store, result.tree

@@ -75,7 +75,7 @@ def test_pickling_round_trip(learned):
 def test_the_store_and_a_rebuild_from_its_log_answer_identically(learned, tmp_path):
     home, _, shared, log = learned
     tree = pickle.loads(pickle.dumps(shared))
-    store = Store(f"sqlite:///{tmp_path / 'k.sqlite'}", home)
+    store = Store.open(f"sqlite:///{tmp_path / 'k.sqlite'}", home)
     store.save_build(tree, log)
     for x in _contexts(home, 20, seed=9):
         store.correct(tree, tree.point(x), [], "ann")

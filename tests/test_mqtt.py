@@ -285,7 +285,7 @@ def test_the_running_robot_follows_the_broker_and_sends_each_command_once(broker
 
     studio = load_home(Path(__file__).parent / "homes" / "studio.yaml")
     prefix = f"homecog_test_{secrets.token_hex(6)}"
-    store = Store(f"sqlite:///{tmp_path / 'k.sqlite'}", studio)
+    store = Store.open(f"sqlite:///{tmp_path / 'k.sqlite'}", studio)
     tree = build(studio, store).tree
     received: list[tuple[str, str]] = []
     sub = mqtt.Client(CallbackAPIVersion.VERSION2)

@@ -5,9 +5,9 @@ from __future__ import annotations
 import itertools
 
 import pytest
+from reference import parse_hardware_code
 
-from homecog.environment.core import solvable_start_states
-from homecog.home.encoding import parse_hardware_code
+from homecog.environment.reachability import solvable_start_states
 
 DEVICES = ["window", "curtain", "tv_living", "tv_bedroom", "ac_living", "ac_bedroom", "lamp", "ceiling_light"]
 TABLE2 = [

@@ -249,7 +249,11 @@ def test_the_running_robot_acts_with_the_pyrobosim_body(paper: Home) -> None:
 
     source = SimulatedHome(paper, speed=0, start="2021-06-21 21:30", routine_switches=False)
     runtime = Runtime(
-        home=paper, store=Store("sqlite://", paper), tree=IHDRTree(paper), source=source, robot="pyrobosim"
+        home=paper,
+        store=Store.open("sqlite://", paper),
+        tree=IHDRTree(paper),
+        source=source,
+        robot="pyrobosim",
     )
     assert isinstance(runtime.actor.body, PyRoboSimBody)
     now = runtime.context()

@@ -42,7 +42,7 @@ RELAX = {**WORK, "activity": "relax", "light": "300"}
 def stored(tmp_path_factory, studio_build):
     home = load_home_text(STUDIO, "studio.yaml")
     url = f"sqlite:///{tmp_path_factory.mktemp('robot') / 'knowledge.sqlite'}"
-    store = Store(url, home)
+    store = Store.open(url, home)
     build(home, store, q_path=studio_build)
     store.close()
     return home, url
@@ -54,7 +54,7 @@ def make_runtime(stored, tmp_path, home=None):
     home = home or base
     copy = tmp_path / "k.sqlite"
     copy.write_bytes(Path(url.removeprefix("sqlite:///")).read_bytes())
-    store = Store(f"sqlite:///{copy}", home, replace=home is not base)
+    store = Store.open(f"sqlite:///{copy}", home, replace=home is not base)
     source = ManualSource(home)
     source.set_context(WORK)
     return Runtime(home=home, store=store, tree=store.load_tree(), source=source)
@@ -393,7 +393,7 @@ def test_a_database_that_fails_stops_neither_the_robot_nor_an_undo_for_good(stor
     real = runtime.store.correct
 
     def down(*args, **kwargs):
-        raise StoreError("--db sqlite:///k.sqlite: cannot use the database: disk I/O error")
+        raise StoreError("database sqlite:///k.sqlite: cannot use the database: disk I/O error")
 
     monkeypatch.setattr(runtime.store, "correct", down)
     runtime.source.set_context({"activity": "relax"})

@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from homecog.environment.core import greedy_outcomes
+from homecog.environment.reachability import greedy_outcomes
 from homecog.errors import QTableError
 from homecog.home import load_home
 from homecog.learning.policy import Policy

@@ -80,7 +80,7 @@ def test_the_same_answers_and_errors_as_the_one_home_api(fleet_url, fleet_db, tm
     home = fleet_db[1][0]
     fleet = TestClient(FleetApp(Fleet(fleet_url)))
     one_url = copy_database(fleet_db[0], tmp_path / "one.sqlite")
-    store = Store(one_url, home)
+    store = Store.open(one_url, home)
     runtime = Runtime(home=home, store=store, tree=store.load_tree(), source=ManualSource(home))
     one = TestClient(create_app(runtime, Settings()))
     ctx = context_of(home)
@@ -117,7 +117,7 @@ def test_a_correction_goes_to_the_database_and_is_seen_at_once(fleet_url, fleet_
     assert answer.status_code == 200, answer.text
     assert client.post(f"{base}/cognize", json={"context": ctx, "user": "kim"}).json()["services"] == want
     assert client.get(f"{base}/history").json()["total"] == 1
-    store = Store(fleet_url, home)  # in the database, for everyone who reads it
+    store = Store.open(fleet_url, home)  # in the database, for everyone who reads it
     assert store.load_tree().predict_one(ctx, "kim") == want and store.home_version() == (2, 1)
     store.close()
 
@@ -232,7 +232,7 @@ def test_the_schemas_need_no_token_as_with_homecog_up(fleet_url, fleet_db):
     schema = client.get(f"/api/homes/{home.name}/openapi.json")
     assert schema.status_code == 200 and schema.json()["info"]["title"] == f"homecog: {home.name}"
     runtime = Runtime(
-        home=home, store=Store("sqlite://", home), tree=IHDRTree(home), source=ManualSource(home)
+        home=home, store=Store.open("sqlite://", home), tree=IHDRTree(home), source=ManualSource(home)
     )
     up = TestClient(create_app(runtime, Settings(token=TOKEN)))
     assert up.get("/openapi.json").status_code == 200  # homecog up's, the same way

@@ -58,7 +58,7 @@ NIGHT = {
 @pytest.fixture
 def built(db_url: str, studio: Home, studio_build: Path):
     """A store of the studio home with a freshly built tree: (store, live tree)."""
-    store = Store(db_url, studio)
+    store = Store.open(db_url, studio)
     tree = build(studio, store, q_path=studio_build).tree
     yield store, tree
     store.close()
@@ -66,7 +66,7 @@ def built(db_url: str, studio: Home, studio_build: Path):
 
 def _reopen(url: str, home: Home) -> IHDRTree:
     """The tree as another client sees it: a new Store object, loaded from the database."""
-    store = Store(url, home)
+    store = Store.open(url, home)
     try:
         return store.load_tree()
     finally:
@@ -100,7 +100,7 @@ def _user_corrections(store: Store) -> tuple[dict[str, int], dict[str, int]]:
 
 def _assert_consistent(url: str, home: Home) -> IHDRTree:
     """The database answers as its log says: loads, rebuilds to the same tree, counts agree."""
-    store = Store(url, home)
+    store = Store.open(url, home)
     try:
         loaded = store.load_tree()
         assert store.rebuild().signature() == loaded.signature()
@@ -241,14 +241,14 @@ def test_many_homes_and_a_changed_home_file(
 ) -> None:
     """One database holds many homes by name; a home file of a stored name and other
     content is refused, naming both hashes."""
-    other = Store(db_url, paper)
+    other = Store.open(db_url, paper)
     try:
         assert not other.has_tree() and other.counts()["nodes"] == 0
     finally:
         other.close()
     changed = load_home_text(STUDIO_TEXT + "\nrewards: {magnitude: 5}\n", "studio.yaml")
     with pytest.raises(StoreError) as info:
-        Store(db_url, changed)
+        Store.open(db_url, changed)
     message = str(info.value)
     assert "home 'studio'" in message and studio.content_hash[:12] in message
     assert changed.content_hash[:12] in message
@@ -286,9 +286,9 @@ def no_hang(seconds: int) -> Iterator[None]:
 )
 def test_bad_url_is_a_one_line_store_error(url: str, studio: Home) -> None:
     with no_hang(60), pytest.raises(StoreError) as info:  # refused, not waited on
-        Store(url, studio)
+        Store.open(url, studio)
     message = str(info.value)
-    assert message.startswith("--db ")
+    assert message.startswith("database ")
     assert "\n" not in message
     assert "Traceback" not in message
 
@@ -379,7 +379,7 @@ def test_sigkill_leaves_a_consistent_store(built: tuple[Store, IHDRTree], db_url
     assert store.counts()["corrections"] == users["alice"]
 
     # the store still takes corrections, from a new client
-    after = Store(db_url, studio)
+    after = Store.open(db_url, studio)
     try:
         tree = after.load_tree()
         assert tree.signature() == loaded.signature()

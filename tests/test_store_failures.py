@@ -55,7 +55,7 @@ def refuse_writes_past(store: Store, rows: int) -> None:
 
 @pytest.fixture
 def stored(db_url, studio, studio_build):
-    store = Store(db_url, studio)
+    store = Store.open(db_url, studio)
     build(studio, store, q_path=studio_build)
     yield store
     store.close()

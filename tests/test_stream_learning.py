@@ -95,7 +95,7 @@ def test_the_additive_model_adds_the_evidence_of_several_atoms():
 def test_a_stream_learned_through_the_store_answers_the_same_after_a_reload(tmp_path: Path):
     home = load_home("paper")
     url = f"sqlite:///{tmp_path}/k.sqlite"
-    store = Store(url, home)
+    store = Store.open(url, home)
     t = open_tree(home, store)
     past = RecentPast(home)
     space = Space(home)
@@ -110,7 +110,7 @@ def test_a_stream_learned_through_the_store_answers_the_same_after_a_reload(tmp_
     before = t.predict_one(probe, "ann")
     assert t._layers.learners("ann")[home.service_index("TurnOnLamp")].streaming
     store.close()
-    again = Store(url, home)
+    again = Store.open(url, home)
     reloaded = open_tree(home, again)
     assert reloaded.predict_one(probe, "ann") == before
     lamp = reloaded._layers.learners("ann")[home.service_index("TurnOnLamp")]
@@ -174,7 +174,7 @@ def test_event_files_take_missing_readings_scenario_files_need_services_for_them
 
 def test_a_correction_with_a_missing_reading_keys_on_unknown(tmp_path: Path):
     home = load_home("paper")
-    store = Store(f"sqlite:///{tmp_path}/k.sqlite", home)
+    store = Store.open(f"sqlite:///{tmp_path}/k.sqlite", home)
     t = open_tree(home, store)
     space = Space(home)
     missing = space.point({**PAPER_X, "temperature": "unknown"})
@@ -184,7 +184,7 @@ def test_a_correction_with_a_missing_reading_keys_on_unknown(tmp_path: Path):
     why = next(e for e in t.explain_one(missing, "kim").explanations if e.service == "TurnOnLamp")
     assert why.evidence["agreed"] == 3
     store.close()
-    again = Store(f"sqlite:///{tmp_path}/k.sqlite", home)
+    again = Store.open(f"sqlite:///{tmp_path}/k.sqlite", home)
     assert "TurnOnLamp" in open_tree(home, again).predict_one(missing, "kim")
     again.close()
 

@@ -36,7 +36,7 @@ WORK = {
 def built(tmp_path_factory):
     home = load_home_text(STUDIO.read_text() + LAYOUT, "studio.yaml")
     url = f"sqlite:///{tmp_path_factory.mktemp('web') / 'knowledge.sqlite'}"
-    store = Store(url, home)
+    store = Store.open(url, home)
     tree = build(home, store).tree
     yield home, store, tree
     store.close()

@@ -37,7 +37,7 @@ def studio(tmp_path_factory):
 
 def _client(home_path, url, **settings):
     home = load_home(home_path)
-    store = Store(url, home)
+    store = Store.open(url, home)
     runtime = Runtime(home=home, store=store, tree=store.load_tree(), source=ManualSource(home))
     return TestClient(create_app(runtime, Settings(**settings))), runtime
 
@@ -48,7 +48,7 @@ def _outage_is_a_503(client, runtime, reason: str) -> None:
     r = client.post("/api/corrections", json={"context": WORK, "want": ["RadioOn"], "user": "kim"})
     assert r.status_code == 503, r.text
     detail = r.json()["detail"]
-    assert detail.startswith("the knowledge database cannot be used: --db ") and reason in detail
+    assert detail.startswith("the knowledge database cannot be used: database ") and reason in detail
     assert "Traceback" not in detail
     r = client.get("/api/history")
     assert r.status_code == 503 and r.json()["detail"].startswith("the knowledge database cannot be used")
@@ -83,7 +83,7 @@ def test_a_postgresql_database_dropped_under_the_server_is_a_503(studio):
     home_path, _ = studio
     with fresh_database("postgresql") as url:
         home = load_home(home_path)
-        store = Store(url, home)
+        store = Store.open(url, home)
         build(home, store)
         store.close()
         client, runtime = _client(home_path, url)

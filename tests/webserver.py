@@ -46,7 +46,7 @@ def build_studio(directory: Path) -> tuple[Path, Path]:
     home_path = directory / "studio.yaml"
     home_path.write_text(STUDIO_WITH_LAYOUT)
     db = directory / "knowledge.sqlite"
-    store = Store(f"sqlite:///{db}", load_home(home_path))
+    store = Store.open(f"sqlite:///{db}", load_home(home_path))
     try:
         build(store.home, store)
     finally:

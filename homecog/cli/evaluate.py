@@ -160,7 +160,7 @@ def _closed_loop(
         parse_start(start)  # a start that is no date and time fails before any learning
     if report is not None:
         check_writable(report / "household.md")
-    store = Store(db or "sqlite://", h)
+    store = Store.open(db or "sqlite://", h)
     try:
         tree = open_tree(h, store, progress=status)
         when = {} if start is None else {"start": start}

@@ -30,7 +30,7 @@ def _knowledge(h: Home, db: str | None) -> Iterator[tuple[Any, Any]]:
     from homecog.knowledge.pipeline import open_tree
     from homecog.knowledge.store import Store
 
-    store = Store(db, h)
+    store = Store.open(db, h)
     try:
         yield store, open_tree(h, store, progress=status)
     finally:

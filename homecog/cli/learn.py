@@ -124,13 +124,14 @@ def build(
     json: JsonOption = False,
 ) -> None:
     """Build the knowledge tree from the Q table's samples and store it."""
+    from homecog.knowledge.database import redact
     from homecog.knowledge.pipeline import build as run_build
-    from homecog.knowledge.store import Store, redact
+    from homecog.knowledge.store import Store
 
     h = load_home(home)
     if q is not None:
         check_readable(q, "--q", "a Q table", limit=2**40)
-    store = Store(db, h)
+    store = Store.open(db, h)
     try:
         result = run_build(h, store, q_path=q, mode=mode.value, seed=seed, joint=joint, progress=status)
         counts = store.counts()

@@ -93,8 +93,9 @@ def up(
     import functools
     import gc
 
+    from homecog.knowledge.database import redact
     from homecog.knowledge.pipeline import open_tree
-    from homecog.knowledge.store import Store, redact
+    from homecog.knowledge.store import Store
     from homecog.robot.runtime import Runtime
     from homecog.web.main import create_app
     from homecog.web.serving import run
@@ -117,7 +118,7 @@ def up(
         early = outside is not None and outside.source.early
         if early:  # a wrong URL, token or entity fails before any training
             source = _start(outside, outside.source.make(h, outside.url, ha_token), h, stack)
-        store = Store(db, h)
+        store = Store.open(db, h)
         stack.callback(store.close)
         tree = open_tree(h, store, progress=lambda m: say(m, style="dim"))
         if outside is None:

@@ -7,9 +7,7 @@ from __future__ import annotations
 
 from gymnasium.envs.registration import register, registry
 
-from homecog.environment.core import Core
 from homecog.environment.env import SmartHomeEnv
-from homecog.environment.tables import Tables, build_tables
 
 ENV_ID = "homecog/SmartHome-v0"
 DEFAULT_MAX_STEPS = 30
@@ -19,4 +17,4 @@ if ENV_ID not in registry:
         id=ENV_ID, entry_point="homecog.environment.env:SmartHomeEnv", max_episode_steps=DEFAULT_MAX_STEPS
     )
 
-__all__ = ["DEFAULT_MAX_STEPS", "ENV_ID", "Core", "SmartHomeEnv", "Tables", "build_tables"]
+__all__ = ["DEFAULT_MAX_STEPS", "ENV_ID", "SmartHomeEnv"]

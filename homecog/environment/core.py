@@ -6,8 +6,7 @@ bits over the needs of ``c`` (bit ``j`` = the ``j``-th interaction service ``c``
 :class:`~homecog.environment.tables.Tables` holds the rules of a home as arrays
 (:mod:`homecog.environment.tables`); the kernels of :mod:`homecog.environment.kernels` step
 through them, and :mod:`homecog.environment.reachability` asks which start states reach their
-optimum. :class:`Core` puts them together for one home; the names of those modules are
-importable from here too.
+optimum. :class:`Core` puts them together for one home.
 
 States are numbered without collisions by a mixed-radix code: the context digits
 (radix = number of values of each feature), then one binary digit per device, then one
@@ -28,49 +27,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from homecog.environment.kernels import (
-    apply,
-    argmax_row,
-    distance,
-    is_prohibited,
-    popcount,
-    progressed,
-    reward,
-    step,
-    step_many,
-)
-from homecog.environment.reachability import (
-    fewest_steps,
-    greedy_outcomes,
-    optimal_start_states,
-    solvable_start_states,
-    solvable_states,
-)
-from homecog.environment.tables import Tables, build_tables
+from homecog.environment.kernels import distance, progressed, step, step_many
+from homecog.environment.tables import build_tables
 from homecog.errors import HomeTooLargeError
 from homecog.home.encoding import context_codes, context_index
 from homecog.home.model import Home
-
-__all__ = [
-    "MAX_TABLE_ENTRIES",
-    "Core",
-    "Tables",
-    "apply",
-    "argmax_row",
-    "build_tables",
-    "distance",
-    "fewest_steps",
-    "greedy_outcomes",
-    "is_prohibited",
-    "optimal_start_states",
-    "popcount",
-    "progressed",
-    "reward",
-    "solvable_start_states",
-    "solvable_states",
-    "step",
-    "step_many",
-]
 
 #: Largest Q table (states × services) the core builds: 2**31 entries (8 GiB of float32).
 MAX_TABLE_ENTRIES = 2**31

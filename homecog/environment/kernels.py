@@ -25,9 +25,8 @@ _jit = numba.njit(cache=True, nogil=True)
 _inline = numba.njit(cache=True, nogil=True, inline="always")
 
 # -- kernels ------------------------------------------------------------------------------
-# The kernels unpack the tables into local arrays once and pass arrays, not the tuple,
-# to the inlined helpers: reading an array out of the tuple inside branchy code makes
-# numba count references on every access, which costs ten times the step itself.
+# The kernels read the arrays they need out of the tables by name, into locals, and pass
+# arrays, not the tuple, to the small helpers below.
 
 
 @_inline
@@ -155,30 +154,51 @@ def best_allowed(t: Tables, q: np.ndarray, c: int, h: int, n: int) -> int:
     return argmax_allowed(q, s, t.prohibited_ctx, t.rule_start, t.rule_ctx, t.rule_mask, t.rule_val, c, h)
 
 
+@_inline
+def greedy_walk(
+    t: Tables, q: np.ndarray, c: int, h: int, n: int, strict: bool, services: np.ndarray
+) -> tuple[int, bool]:
+    """The greedy roll-out of ``q`` from (c, h, n): the best service not prohibited
+    (:func:`argmax_allowed`), step after step, until the optimum or ``len(services)`` services.
+
+    Writes the services to ``services`` in order and returns how many, and whether the roll-out
+    was optimal so far: no step prohibited, every step progress, the optimum reached. ``strict``
+    stops it at the first step that is not allowed progress."""
+    care_c, want_c, k, first = t.care[c], t.want[c], t.need_count[c], t.offsets[c]
+    need_pos, set_mask, set_val = t.need_pos, t.set_mask, t.set_val
+    p_ctx, r_start, r_ctx, r_mask, r_val = t.prohibited_ctx, t.rule_start, t.rule_ctx, t.rule_mask, t.rule_val
+    d = distance(care_c, want_c, h, n)
+    ok = True
+    count = 0
+    while d > 0 and count < len(services) and (ok or not strict):
+        a = argmax_allowed(q, first + (h << k) + n, p_ctx, r_start, r_ctx, r_mask, r_val, c, h)
+        services[count] = a
+        h2, n2 = apply(set_mask, set_val, need_pos, c, h, n, a)
+        d2 = distance(care_c, want_c, h2, n2)
+        ok = ok and not is_prohibited(p_ctx, r_start, r_ctx, r_mask, r_val, c, h, a)
+        ok = ok and progressed(care_c, want_c, h, h2, d, d2)
+        h, n, d = h2, n2, d2
+        count += 1
+    return count, ok and d == 0
+
+
 @_jit
+def greedy_path(t: Tables, q: np.ndarray, c: int, h: int, n: int, limit: int) -> np.ndarray:
+    """The services of :func:`greedy_walk` from (c, h, n), at most ``limit`` (for callers in Python)."""
+    services = np.empty(limit, dtype=np.int64)
+    count, _ = greedy_walk(t, q, c, h, n, False, services)
+    return services[:count]
+
+
+@_inline
 def step(t: Tables, c: int, h: int, n: int, a: int) -> tuple[int, int, float, bool, bool]:
     """One environment step: (h', n', reward, terminated, prohibited), rewards as Eq. 1."""
-    (
-        _,
-        _,
-        _,
-        care,
-        want,
-        need_pos,
-        set_mask,
-        set_val,
-        prohibited_ctx,
-        rule_start,
-        rule_ctx,
-        rule_mask,
-        rule_val,
-        w,
-    ) = t
-    before = distance(care[c], want[c], h, n)
-    h2, n2 = apply(set_mask, set_val, need_pos, c, h, n, a)
-    after = distance(care[c], want[c], h2, n2)
-    forbidden = is_prohibited(prohibited_ctx, rule_start, rule_ctx, rule_mask, rule_val, c, h, a)
-    good = progressed(care[c], want[c], h, h2, before, after)
+    care_c, want_c, w = t.care[c], t.want[c], t.weights
+    before = distance(care_c, want_c, h, n)
+    h2, n2 = apply(t.set_mask, t.set_val, t.need_pos, c, h, n, a)
+    after = distance(care_c, want_c, h2, n2)
+    forbidden = is_prohibited(t.prohibited_ctx, t.rule_start, t.rule_ctx, t.rule_mask, t.rule_val, c, h, a)
+    good = progressed(care_c, want_c, h, h2, before, after)
     return h2, n2, reward(w[0], w[1], w[2], w[3], good, before, after, forbidden), after == 0, forbidden
 
 
@@ -187,22 +207,6 @@ def step_many(
     t: Tables, c: np.ndarray, h: np.ndarray, n: np.ndarray, a: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """:func:`step` over arrays of states and services at once."""
-    (
-        _,
-        _,
-        _,
-        care,
-        want,
-        need_pos,
-        set_mask,
-        set_val,
-        prohibited_ctx,
-        rule_start,
-        rule_ctx,
-        rule_mask,
-        rule_val,
-        w,
-    ) = t
     size = len(c)
     h2 = np.empty(size, dtype=np.int64)
     n2 = np.empty(size, dtype=np.int64)
@@ -210,14 +214,5 @@ def step_many(
     done = np.empty(size, dtype=np.bool_)
     forbidden = np.empty(size, dtype=np.bool_)
     for i in range(size):
-        ci = c[i]
-        before = distance(care[ci], want[ci], h[i], n[i])
-        h2[i], n2[i] = apply(set_mask, set_val, need_pos, ci, h[i], n[i], a[i])
-        after = distance(care[ci], want[ci], h2[i], n2[i])
-        forbidden[i] = is_prohibited(
-            prohibited_ctx, rule_start, rule_ctx, rule_mask, rule_val, ci, h[i], a[i]
-        )
-        good = progressed(care[ci], want[ci], h[i], h2[i], before, after)
-        rewards[i] = reward(w[0], w[1], w[2], w[3], good, before, after, forbidden[i])
-        done[i] = after == 0
+        h2[i], n2[i], rewards[i], done[i], forbidden[i] = step(t, c[i], h[i], n[i], a[i])
     return h2, n2, rewards, done, forbidden

@@ -20,55 +20,25 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from homecog.environment.kernels import apply, argmax_allowed, distance, is_prohibited, progressed
+from homecog.environment.kernels import apply, distance, greedy_walk, is_prohibited, progressed
 from homecog.environment.tables import Tables
 
 _jit = numba.njit(cache=True, nogil=True)
+_inline = numba.njit(cache=True, nogil=True, inline="always")
 
 
 @_jit
 def _greedy(t: Tables, q: np.ndarray, fewest: np.ndarray) -> np.ndarray:
-    (
-        n_devices,
-        need_count,
-        offsets,
-        care,
-        want,
-        need_pos,
-        set_mask,
-        set_val,
-        prohibited_ctx,
-        rule_start,
-        rule_ctx,
-        rule_mask,
-        rule_val,
-        _,
-    ) = t
-    n_contexts = len(need_count)
-    n_h = 1 << n_devices
+    n_contexts = len(t.need_count)
+    n_h = 1 << t.n_devices
+    services = np.empty(t.n_devices + t.need_count.max(), dtype=np.int64)  # at most the distance
     out = np.zeros((n_contexts, n_h), dtype=np.bool_)
     for c in range(n_contexts):
-        k = need_count[c]
+        k = t.need_count[c]
         for h0 in range(n_h):
-            h, n = h0, (1 << k) - 1
-            d = distance(care[c], want[c], h, n)
-            ok = True
-            steps = 0
-            while d > 0:
-                s = offsets[c] + (h << k) + n
-                a = argmax_allowed(q, s, prohibited_ctx, rule_start, rule_ctx, rule_mask, rule_val, c, h)
-                if is_prohibited(prohibited_ctx, rule_start, rule_ctx, rule_mask, rule_val, c, h, a):
-                    ok = False
-                    break
-                h2, n = apply(set_mask, set_val, need_pos, c, h, n, a)
-                d2 = distance(care[c], want[c], h2, n)
-                if not progressed(care[c], want[c], h, h2, d, d2):
-                    ok = False
-                    break
-                h, d = h2, d2
-                steps += 1
+            steps, ok = greedy_walk(t, q, c, h0, (1 << k) - 1, True, services)
             if ok and fewest.size:
-                ok = steps == fewest[offsets[c] + (h0 << k) + (1 << k) - 1]
+                ok = steps == fewest[t.offsets[c] + (h0 << k) + (1 << k) - 1]
             out[c, h0] = ok
     return out
 
@@ -89,53 +59,39 @@ def fewest_steps(t: Tables, usable: np.ndarray | None = None) -> np.ndarray:
     return _fewest(t, np.ones(len(t.set_mask), dtype=np.bool_) if usable is None else usable)
 
 
+@_inline
+def _fewest_from(t: Tables, usable: np.ndarray, steps: np.ndarray, c: int, h: int, n: int, d: int) -> int:
+    """The fewest services of a path from (c, h, n), at distance ``d`` > 0, given ``steps`` of
+    every state nearer; −1 where there is none."""
+    k = t.need_count[c]
+    care_c, want_c = t.care[c], t.want[c]
+    best = -1
+    for a in range(len(t.set_mask)):
+        if not usable[a]:
+            continue
+        if is_prohibited(t.prohibited_ctx, t.rule_start, t.rule_ctx, t.rule_mask, t.rule_val, c, h, a):
+            continue
+        h2, n2 = apply(t.set_mask, t.set_val, t.need_pos, c, h, n, a)
+        if not progressed(care_c, want_c, h, h2, d, distance(care_c, want_c, h2, n2)):
+            continue
+        rest = steps[t.offsets[c] + (h2 << k) + n2]
+        if rest >= 0 and (best < 0 or rest + 1 < best):
+            best = rest + 1
+    return best
+
+
 @_jit
 def _fewest(t: Tables, usable: np.ndarray) -> np.ndarray:
-    (
-        n_devices,
-        need_count,
-        offsets,
-        care,
-        want,
-        need_pos,
-        set_mask,
-        set_val,
-        prohibited_ctx,
-        rule_start,
-        rule_ctx,
-        rule_mask,
-        rule_val,
-        _,
-    ) = t
-    n_services = len(set_mask)
-    steps = np.full(offsets[-1], -1, dtype=np.int16)
-    max_d = n_devices + need_count.max()
-    for level in range(max_d + 1):  # a state's successors on a path are nearer
-        for c in range(len(need_count)):
-            k = need_count[c]
-            for h in range(1 << n_devices):
+    steps = np.full(t.offsets[-1], -1, dtype=np.int16)
+    for level in range(t.n_devices + t.need_count.max() + 1):  # a state's successors on a path are nearer
+        for c in range(len(t.need_count)):
+            k = t.need_count[c]
+            for h in range(1 << t.n_devices):
                 for n in range(1 << k):
-                    d = distance(care[c], want[c], h, n)
-                    if d != level:
-                        continue
-                    s = offsets[c] + (h << k) + n
-                    if d == 0:
-                        steps[s] = 0
-                        continue
-                    best = -1
-                    for a in range(n_services):
-                        if not usable[a]:
-                            continue
-                        if is_prohibited(prohibited_ctx, rule_start, rule_ctx, rule_mask, rule_val, c, h, a):
-                            continue
-                        h2, n2 = apply(set_mask, set_val, need_pos, c, h, n, a)
-                        d2 = distance(care[c], want[c], h2, n2)
-                        if not progressed(care[c], want[c], h, h2, d, d2):
-                            continue
-                        rest = steps[offsets[c] + (h2 << k) + n2]
-                        if rest >= 0 and (best < 0 or rest + 1 < best):
-                            best = rest + 1
-                    steps[s] = best
+                    d = distance(t.care[c], t.want[c], h, n)
+                    if d == level:
+                        s = t.offsets[c] + (h << k) + n
+                        steps[s] = 0 if d == 0 else _fewest_from(t, usable, steps, c, h, n, d)
     return steps
 
 

@@ -60,40 +60,81 @@ def _device_bits(cond: Condition) -> tuple[int, int]:
 def build_tables(home: Home) -> Tables:
     """Evaluate every rule of a home over all its contexts."""
     n_contexts = home.context_count
-    n_devices, n_services = len(home.devices), len(home.services)
     radix = [f.radix for f in home.features]
     codes = np.stack(np.unravel_index(np.arange(n_contexts), radix), axis=1).astype(np.int64)
+    care, want = _comfort(home, codes)
+    need_pos, need_count = _needs(home, codes)
+    set_mask, set_val = _settings(home)
+    prohibited_ctx, rule_start, rule_ctx, rule_mask, rule_val = _prohibitions(home, codes)
+    per_context = (np.int64(1) << len(home.devices)) << need_count
+    offsets = np.concatenate([[0], np.cumsum(per_context)]).astype(np.int64)
+    r = home.rewards
+    return Tables(
+        n_devices=len(home.devices),
+        need_count=need_count,
+        offsets=offsets,
+        care=care,
+        want=want,
+        need_pos=need_pos,
+        set_mask=set_mask,
+        set_val=set_val,
+        prohibited_ctx=prohibited_ctx,
+        rule_start=rule_start,
+        rule_ctx=rule_ctx,
+        rule_mask=rule_mask,
+        rule_val=rule_val,
+        weights=np.array([r.terminal, r.progress, r.prohibited, r.magnitude], dtype=np.float64),
+    )
 
-    care = np.zeros(n_contexts, dtype=np.int64)
-    want = np.zeros(n_contexts, dtype=np.int64)
+
+def _comfort(home: Home, codes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Per context, the devices a comfort rule cares about and their wanted states (the first
+    rule of a device that matches decides)."""
+    care = np.zeros(len(codes), dtype=np.int64)
+    want = np.zeros(len(codes), dtype=np.int64)
     for d, rules in enumerate(home.comfort):
-        decided = np.zeros(n_contexts, dtype=bool)
+        decided = np.zeros(len(codes), dtype=bool)
         for rule in rules:
             hit = condition_contexts(codes, rule.when) & ~decided
             care[hit] |= 1 << d
             if rule.want:
                 want[hit] |= 1 << d
             decided |= hit
+    return care, want
 
-    need_pos = np.full((n_contexts, n_services), -1, dtype=np.int64)
-    need_count = np.zeros(n_contexts, dtype=np.int64)
+
+def _needs(home: Home, codes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Per context and service, the need bit of the service there (−1: not needed); per context,
+    how many needs it has."""
+    need_pos = np.full((len(codes), len(home.services)), -1, dtype=np.int64)
+    need_count = np.zeros(len(codes), dtype=np.int64)
     for a, rules in enumerate(home.needs):
-        needed = np.zeros(n_contexts, dtype=bool)
+        needed = np.zeros(len(codes), dtype=bool)
         for cond in rules:
             needed |= condition_contexts(codes, cond)
         need_pos[needed, a] = need_count[needed]
         need_count[needed] += 1
+    return need_pos, need_count
 
-    set_mask = np.zeros(n_services, dtype=np.int64)
-    set_val = np.zeros(n_services, dtype=np.int64)
+
+def _settings(home: Home) -> tuple[np.ndarray, np.ndarray]:
+    """Per service, the devices it sets and the states it sets them to, as bits."""
+    set_mask = np.zeros(len(home.services), dtype=np.int64)
+    set_val = np.zeros(len(home.services), dtype=np.int64)
     for a, service in enumerate(home.services):
         for device, state in service.sets:
             d = home.device_index(device)
             set_mask[a] |= 1 << d
             if state:
                 set_val[a] |= 1 << d
+    return set_mask, set_val
 
-    prohibited_ctx = np.zeros((n_contexts, n_services), dtype=bool)
+
+def _prohibitions(home: Home, codes: np.ndarray) -> tuple[np.ndarray, ...]:
+    """The prohibited rules: (prohibited_ctx, rule_start, rule_ctx, rule_mask, rule_val) of
+    :class:`Tables`."""
+    n_contexts = len(codes)
+    prohibited_ctx = np.zeros((n_contexts, len(home.services)), dtype=bool)
     rule_start, rule_ctx, rule_mask, rule_val = [0], [], [], []
     for a, rules in enumerate(home.prohibited):
         for cond in rules:
@@ -106,23 +147,10 @@ def build_tables(home: Home) -> Tables:
                 rule_mask.append(mask)
                 rule_val.append(val)
         rule_start.append(len(rule_mask))
-
-    per_context = (np.int64(1) << n_devices) << need_count
-    offsets = np.concatenate([[0], np.cumsum(per_context)]).astype(np.int64)
-    r = home.rewards
-    return Tables(
-        n_devices=n_devices,
-        need_count=need_count,
-        offsets=offsets,
-        care=care,
-        want=want,
-        need_pos=need_pos,
-        set_mask=set_mask,
-        set_val=set_val,
-        prohibited_ctx=prohibited_ctx,
-        rule_start=np.asarray(rule_start, dtype=np.int64),
-        rule_ctx=np.asarray(rule_ctx, dtype=bool).reshape(len(rule_mask), n_contexts),
-        rule_mask=np.asarray(rule_mask, dtype=np.int64),
-        rule_val=np.asarray(rule_val, dtype=np.int64),
-        weights=np.array([r.terminal, r.progress, r.prohibited, r.magnitude], dtype=np.float64),
+    return (
+        prohibited_ctx,
+        np.asarray(rule_start, dtype=np.int64),
+        np.asarray(rule_ctx, dtype=bool).reshape(len(rule_mask), n_contexts),
+        np.asarray(rule_mask, dtype=np.int64),
+        np.asarray(rule_val, dtype=np.int64),
     )

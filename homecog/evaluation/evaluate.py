@@ -112,7 +112,7 @@ def correction_curve(
     block = block or max(1, k // 10)
     stream = random_scenarios(home, k, seed=seed + 7919, truth=truth)
     with tempfile.TemporaryDirectory() as tmp:
-        store = Store(db or f"sqlite:///{tmp}/corrections.sqlite", home)
+        store = Store.open(db or f"sqlite:///{tmp}/corrections.sqlite", home)
         try:
             store.save_build(tree, samples)
             live = store.load_tree()

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from homecog.home.codec import Point, Space, finite_span
+from homecog.home.codec import Point, Space, reading_in_bin
 from homecog.home.model import Home
 from homecog.home.scenario_file import Scenario, truth_of
 
@@ -36,11 +36,7 @@ def random_scenarios(home: Home, n: int, *, seed: int = 0, truth: Home | None = 
             if f.bins is None:
                 readings.append(None)
                 continue
-            low, high = finite_span(f.bins)[2 * k : 2 * k + 2]
-            if f.kind == "clock" and high <= low:
-                high += 24
-            x = max(float(np.floor((low + (high - low) * rng.random()) * 100) / 100), low)
-            readings.append(x % 24 if f.kind == "clock" else x)
+            readings.append(float(reading_in_bin(f, k, rng.random())))
         states = [bool(rng.integers(2)) for _ in home.devices]
         point = Point(
             codes=tuple(codes) + tuple(int(s) for s in states),

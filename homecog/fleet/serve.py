@@ -43,9 +43,9 @@ from homecog.context.manual import ManualSource
 from homecog.errors import FleetError, HomecogError, StoreError, UnknownHomeError
 from homecog.fleet.schema import FLEET_SCHEMA, HOME_SCHEMA, PREFIX, fleet_schema, prefixed
 from homecog.home.validator import load_home_text
-from homecog.knowledge.database import db_message, make_engine
+from homecog.knowledge.database import db_message, make_engine, migrate
 from homecog.knowledge.schema import HomeRow
-from homecog.knowledge.store import Store, migrate
+from homecog.knowledge.store import Store
 from homecog.knowledge.store_log import stored_homes
 from homecog.names import home_name_problem, shown
 from homecog.robot.runtime import Runtime
@@ -152,7 +152,7 @@ class Fleet:
                 f"home {name!r} was built without its home file; learn it with homecog fleet train"
             )
         home = load_home_text(row.source, f"{name} (stored)")
-        store = Store(self.url, home, engine=self.engine, replace=True)
+        store = Store.open(self.url, home, engine=self.engine, replace=True)
         version = store.home_version()  # before the tree: a write in between is seen next time
         tree = store.load_tree()
         runtime = Runtime(home=home, store=store, tree=tree, source=ManualSource(home))

@@ -22,8 +22,8 @@ from pathlib import Path
 
 from homecog.errors import FleetError, HomecogError, HomeFileError, StoreError
 from homecog.home.validator import load_home_text
-from homecog.knowledge.database import db_message, make_engine, redact
-from homecog.knowledge.store import Store, migrate
+from homecog.knowledge.database import db_message, make_engine, migrate, redact
+from homecog.knowledge.store import Store
 from homecog.knowledge.store_log import stored_homes
 from homecog.text_files import HOME_FILE_LIMIT, read_text
 
@@ -61,9 +61,7 @@ def home_files(folder: Path) -> list[Path]:
 def learn_home(path: str, url: str, seed: int = 0) -> HomeResult:
     """Train, sample, build and store one home file; never raises for a bad home (the result
     says why). Runs in a Ray worker, or in this process when serial."""
-    from homecog.knowledge.ihdr import IHDRTree
-    from homecog.knowledge.pipeline import learn_policy
-    from homecog.knowledge.sample_log import SampleLog
+    from homecog.knowledge.pipeline import build_from
     from homecog.learning.grouped import train_policy
     from homecog.learning.sarsa import SarsaConfig
 
@@ -74,13 +72,13 @@ def learn_home(path: str, url: str, seed: int = 0) -> HomeResult:
         home = load_home_text(text, Path(path).name)
         result.home = home.name
         trained = train_policy(home, SarsaConfig(seed=seed), workers=1)
-        tree = IHDRTree(home, mode="multi")
-        log = SampleLog(seed=seed, joint=False)
-        result.samples = learn_policy(home, trained.policy, tree, seed=seed, log=log)
         with tempfile.TemporaryDirectory() as tmp:
             policy = trained.policy.save(Path(tmp) / "q.npz").read_bytes()
-        store = Store(url, home, replace=True, engine=_engine(url))
-        store.save_build(tree, log, seconds=time.perf_counter() - start, source=text, policy=policy)
+        store = Store.open(url, home, replace=True, engine=_engine(url))
+        built = build_from(
+            home, trained.policy, store, start=start, seed=seed, source=text, policy_file=policy
+        )
+        result.samples = built.samples
         result.greedy_optimal_rate = trained.greedy_optimal_rate
     except (HomecogError, OSError, UnicodeDecodeError) as e:
         result.status, result.error = "failed", str(e) if isinstance(e, HomecogError) else f"{path}: {e}"

@@ -27,6 +27,8 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
+import numpy as np
+
 from homecog.errors import ContextError
 from homecog.home.clock import format_clock, parse_clock
 from homecog.home.model import Feature, Home, format_number
@@ -268,6 +270,24 @@ def finite_span(bins: tuple[tuple[float, float], ...]) -> tuple[float, ...]:
             high = low + width
         out.extend([low, high])
     return tuple(out)
+
+
+def reading_in_bin(feature: Feature, code: Any, u: Any) -> Any:
+    """A reading of a numeric feature inside its bin ``code`` from a uniform draw ``u`` in
+    [0, 1) (arrays of both give an array): two decimals, rounded down so that a reading never
+    leaves its half-open bin; a clock bin that wraps midnight is drawn on its unwrapped span.
+
+    >>> from homecog.home import load_home
+    >>> temperature = load_home("paper").feature("temperature")   # cold: [10, 25) drawn
+    >>> float(reading_in_bin(temperature, 0, 0.5))
+    17.5
+    """
+    bounds = np.array(finite_span(feature.bins)).reshape(-1, 2)  # type: ignore[arg-type]
+    low, high = bounds[code, 0], bounds[code, 1]
+    if feature.kind == "clock":
+        high = np.where(high <= low, high + 24, high)
+    values = np.maximum(np.floor((low + (high - low) * u) * 100) / 100, low)
+    return values % 24 if feature.kind == "clock" else values
 
 
 def normalize(home: Home, name: str, value: object) -> str:

@@ -18,7 +18,7 @@ feature most significant), so every context has exactly one index:
 
 The paper's Eq. 2, ``sum((num[i] - 1) * 2**i)``, weights every digit by a power of two
 although most features have more than two values, so distinct contexts collide
-(``paper_index`` reproduces it; see docs/design.md).
+(see docs/design.md).
 """
 
 from __future__ import annotations
@@ -34,11 +34,6 @@ def coded(feature: Feature, k: int) -> tuple[int, float]:
         raise ValueError(f"{feature.name}: code {k} out of range 0..{feature.radix - 1}")
     n = feature.radix
     return k + 1, (k / (n - 1) if n > 1 else 0.0)
-
-
-def normalized(home: Home, codes: Sequence[int]) -> tuple[float, ...]:
-    """The normalized codes of a discrete context (Table 1's right-hand column)."""
-    return tuple(coded(f, k)[1] for f, k in zip(home.features, codes, strict=True))
 
 
 def radices(home: Home) -> tuple[int, ...]:
@@ -67,11 +62,6 @@ def context_codes(home: Home, index: int) -> tuple[int, ...]:
     return tuple(reversed(codes))
 
 
-def paper_index(codes: Sequence[int]) -> int:
-    """The paper's Eq. 2 (with 1-based ``num``): collides; kept to show why we do not use it."""
-    return sum(k * 2**i for i, k in enumerate(codes))
-
-
 def hardware_code(states: Sequence[bool]) -> str:
     """Device states in the paper's notation: 1 = on/open, 2 = off/closed (Table 4).
 
@@ -79,10 +69,3 @@ def hardware_code(states: Sequence[bool]) -> str:
     '21221222'
     """
     return "".join("1" if s else "2" for s in states)
-
-
-def parse_hardware_code(code: str) -> tuple[bool, ...]:
-    """Inverse of :func:`hardware_code`."""
-    if any(ch not in "12" for ch in code):
-        raise ValueError(f"hardware code {code!r} must consist of 1 (on) and 2 (off)")
-    return tuple(ch == "1" for ch in code)

@@ -78,59 +78,69 @@ def device_groups(home: Home) -> tuple[Group, ...]:
     return groups
 
 
-def _find_groups(home: Home) -> tuple[Group, ...]:
-    n_d = len(home.devices)
-    parent = list(range(n_d + len(home.services)))
+class _UnionFind:
+    """Disjoint sets over ``0 .. n−1``; a set's root is its smallest member."""
 
-    def find(x: int) -> int:
+    def __init__(self, n: int) -> None:
+        self.parent = list(range(n))
+
+    def find(self, x: int) -> int:
+        parent = self.parent
         while parent[x] != x:
             parent[x] = parent[parent[x]]
             x = parent[x]
         return x
 
-    def union(x: int, y: int) -> None:
-        rx, ry = find(x), find(y)
+    def union(self, x: int, y: int) -> None:
+        rx, ry = self.find(x), self.find(y)
         if rx != ry:
-            parent[max(rx, ry)] = min(rx, ry)
+            self.parent[max(rx, ry)] = min(rx, ry)
 
+
+def _touched(home: Home, a: int) -> set[int]:
+    """The devices service ``a`` sets or its prohibited rules name."""
+    touched = {home.device_index(d) for d, _ in home.services[a].sets}
+    for cond in home.prohibited[a]:
+        touched |= _named_devices(cond)
+    return touched
+
+
+def _find_groups(home: Home) -> tuple[Group, ...]:
     from homecog.home.scenes import scene_candidates
 
+    n_d = len(home.devices)
+    sets = _UnionFind(n_d + len(home.services))  # devices, then services at n_d + a
     scenes = set(scene_candidates(home))
-    for a, service in enumerate(home.services):
-        if a in scenes:
-            continue
-        touched = {home.device_index(d) for d, _ in service.sets}
-        for cond in home.prohibited[a]:
-            touched |= _named_devices(cond)
-        for d in touched:
-            union(n_d + a, d)
+    for a in range(len(home.services)):
+        if a not in scenes:
+            for d in _touched(home, a):
+                sets.union(n_d + a, d)
     spread = set()
     for a in scenes:
-        roots = {find(home.device_index(d)) for d, _ in home.services[a].sets}
+        roots = {sets.find(home.device_index(d)) for d, _ in home.services[a].sets}
         if len(roots) == 1:
-            union(n_d + a, roots.pop())
+            sets.union(n_d + a, roots.pop())
         else:
             spread.add(a)
-
     members: dict[int, list[int]] = {}
-    for x in range(len(parent)):
+    for x in range(len(sets.parent)):
         if x - n_d not in spread:
-            members.setdefault(find(x), []).append(x)
-    groups = []
-    for i, root in enumerate(sorted(members)):
-        nodes = members[root]
-        devs = tuple(x for x in nodes if x < n_d)
-        svcs = tuple(x - n_d for x in nodes if x >= n_d)
-        groups.append(
-            Group(
-                index=i,
-                devices=tuple(home.devices[d].name for d in devs),
-                services=tuple(home.services[a].name for a in svcs),
-                device_index=devs,
-                service_index=svcs,
-            )
-        )
-    return tuple(groups)
+            members.setdefault(sets.find(x), []).append(x)
+    return tuple(_group(home, i, members[root]) for i, root in enumerate(sorted(members)))
+
+
+def _group(home: Home, i: int, nodes: list[int]) -> Group:
+    """Group ``i`` of the devices and services (at ``n_devices + a``) ``nodes``."""
+    n_d = len(home.devices)
+    devs = tuple(x for x in nodes if x < n_d)
+    svcs = tuple(x - n_d for x in nodes if x >= n_d)
+    return Group(
+        index=i,
+        devices=tuple(home.devices[d].name for d in devs),
+        services=tuple(home.services[a].name for a in svcs),
+        device_index=devs,
+        service_index=svcs,
+    )
 
 
 _OWNERS: dict[str, tuple[int, ...]] = {}

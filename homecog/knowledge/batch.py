@@ -26,84 +26,111 @@ def learn_sample_set(tree: IHDRTree, samples: Any) -> None:
     """Learn a :class:`~homecog.knowledge.samples.SampleSet` into ``tree`` (see the module)."""
     if tree.mode == "paper":
         samples = samples.expand()
-    sets_of = _class_sets(samples)
-    codes, readings, positions, masks = samples.codes, samples.readings, samples.positions, samples.masks
+    positions = samples.positions
     weight = samples.weights()  # how many of the home's start states each row stands for
-    local_dims = samples.space.dims
-    n_dims = len(local_dims)
-    # a group's samples: their dimensions and services at their places in the whole home
-    dims = samples.dims if samples.dims is not None else tuple(range(n_dims))
     n_services = positions.shape[1]
+    # a group's samples: their services at their places in the whole home
     where = samples.services if samples.services is not None else tuple(range(n_services))
-    numeric = [j for j, d in enumerate(local_dims) if d.numeric]
-    radices = tuple(len(d.values) for d in local_dims)
-    idle = (positions < 0).all(axis=1)
     done = positions >= 0
     for a in range(n_services):
-        both = done & done[:, [a]]
-        later = both & (positions > positions[:, [a]])
+        later = done & done[:, [a]] & (positions > positions[:, [a]])
         tree._precedence[where[a], list(where)] += (later * weight[:, None]).sum(axis=0)
     tree._before = None
-    width = len(tree._space)
     for a in range(n_services + 1):
-        if a < n_services:
-            rows = np.flatnonzero(positions[:, a] >= 0)
-            row_masks = masks[rows, a]
-            row_pos = positions[rows, a].astype(np.float64)
-        else:
-            rows = np.flatnonzero(idle)
-            if masks.shape[1] > n_services:
-                row_masks = masks[rows, n_services]
-            else:
-                row_masks = np.full(len(rows), (1 << n_dims) - 1, dtype=np.int64)
-            row_pos = np.zeros(len(rows))
-        if rows.size == 0:
-            continue
-        first, inverse, _ = distinct_rows(row_masks, codes[rows], radices)
-        counts = np.bincount(inverse, weights=weight[rows], minlength=len(first)).astype(np.int64)
-        pos_sums = np.bincount(inverse, weights=row_pos * weight[rows], minlength=len(first))
-        stats = {}
-        # readings matter to the paper's clusters (mean ± range); multi keeps bins only
-        if tree.mode == "paper" and numeric:
-            grouped = np.argsort(inverse, kind="stable")
-            for j in numeric:
-                vals = readings[rows, j]
-                low, high = group_min_max(grouped, inverse, vals, len(first))
-                stats[j] = (np.bincount(inverse, weights=vals, minlength=len(first)), low, high)
-        target = where[a] if a < n_services else len(tree.home.services)
-        order = np.argsort(first, kind="stable")  # in the order the samples came
-        picked = rows[first[order]]
-        row_codes = codes[picked].tolist()
-        row_readings = readings[picked].tolist()
-        local_masks = row_masks[first[order]].tolist()
-        row_counts, row_sums = counts[order].tolist(), pos_sums[order].tolist()
-        row_stats = {j: [stats[j][k][order].tolist() for k in range(3)] for j in stats}
-        for i in range(len(order)):
-            local_mask = local_masks[i]
-            full_codes = [0] * width
-            full_readings: list[float | None] = [None] * width
-            mask = 0
-            sets = {}
-            for j in bits(local_mask):
-                g = dims[j]
-                mask |= 1 << g
-                full_codes[g] = row_codes[i][j]
-                if j in sets_of:
-                    sets[g] = sets_of[j][row_codes[i][j]]
-                    full_codes[g] = min(sets[g])
-                r = row_readings[i][j]
-                full_readings[g] = None if r != r else r  # NaN: not a reading
-            extra = {dims[j]: (st[0][i], st[1][i], st[2][i]) for j, st in row_stats.items()}
-            tree._learn_row(
-                target,
-                mask,
-                tuple(full_codes),
-                tuple(full_readings),
-                row_counts[i],
-                row_sums[i],
-                extra,
-                sets,
-            )
+        rows, row_masks, row_pos = _rows_of(samples, a)
+        if rows.size:
+            target = where[a] if a < n_services else len(tree.home.services)
+            _learn_rows(tree, samples, target, rows, row_masks, row_pos, weight)
+
+
+def _rows_of(samples: Any, a: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The rows of the samples that perform service ``a`` (past the last service: those that
+    perform none), what matters to it in each, and the step it comes at."""
+    positions, masks = samples.positions, samples.masks
+    n_services = positions.shape[1]
+    if a < n_services:
+        rows = np.flatnonzero(positions[:, a] >= 0)
+        return rows, masks[rows, a], positions[rows, a].astype(np.float64)
+    rows = np.flatnonzero((positions < 0).all(axis=1))
+    if masks.shape[1] > n_services:
+        row_masks = masks[rows, n_services]
+    else:
+        row_masks = np.full(len(rows), (1 << len(samples.space.dims)) - 1, dtype=np.int64)
+    return rows, row_masks, np.zeros(len(rows))
+
+
+def _learn_rows(
+    tree: IHDRTree,
+    samples: Any,
+    target: int,
+    rows: np.ndarray,
+    row_masks: np.ndarray,
+    row_pos: np.ndarray,
+    weight: np.ndarray,
+) -> None:
+    """Learn the distinct rows among ``rows`` into service ``target``, each with its count."""
+    codes, readings = samples.codes, samples.readings
+    radices = tuple(len(d.values) for d in samples.space.dims)
+    first, inverse, _ = distinct_rows(row_masks, codes[rows], radices)
+    counts = np.bincount(inverse, weights=weight[rows], minlength=len(first)).astype(np.int64)
+    pos_sums = np.bincount(inverse, weights=row_pos * weight[rows], minlength=len(first))
+    stats = _reading_stats(tree, samples, rows, inverse, len(first))
+    order = np.argsort(first, kind="stable")  # in the order the samples came
+    picked = rows[first[order]]
+    row_codes = codes[picked].tolist()
+    row_readings = readings[picked].tolist()
+    local_masks = row_masks[first[order]].tolist()
+    row_counts, row_sums = counts[order].tolist(), pos_sums[order].tolist()
+    row_stats = {j: [stats[j][k][order].tolist() for k in range(3)] for j in stats}
+    dims = samples.dims if samples.dims is not None else tuple(range(len(samples.space.dims)))
+    place = _Placer(len(tree._space), dims, _class_sets(samples))
+    for i in range(len(order)):
+        mask, full_codes, full_readings, sets = place(local_masks[i], row_codes[i], row_readings[i])
+        extra = {dims[j]: (st[0][i], st[1][i], st[2][i]) for j, st in row_stats.items()}
+        tree._learn_row(target, mask, full_codes, full_readings, row_counts[i], row_sums[i], extra, sets)
+
+
+def _reading_stats(
+    tree: IHDRTree, samples: Any, rows: np.ndarray, inverse: np.ndarray, n_distinct: int
+) -> dict[int, tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    """Per numeric dimension, the sum, least and greatest reading of each distinct row: readings
+    matter to the paper's clusters (mean ± range); multi keeps bins only."""
+    numeric = [j for j, d in enumerate(samples.space.dims) if d.numeric]
+    if tree.mode != "paper" or not numeric:
+        return {}
+    stats = {}
+    grouped = np.argsort(inverse, kind="stable")
+    for j in numeric:
+        vals = samples.readings[rows, j]
+        low, high = group_min_max(grouped, inverse, vals, n_distinct)
+        stats[j] = (np.bincount(inverse, weights=vals, minlength=n_distinct), low, high)
+    return stats
+
+
+class _Placer:
+    """A sample row's codes and readings at their places in the whole home's space."""
+
+    def __init__(self, width: int, dims: tuple[int, ...], sets_of: dict[int, list[frozenset[int]]]) -> None:
+        self.width, self.dims, self.sets_of = width, dims, sets_of
+
+    def __call__(
+        self, local_mask: int, codes: list[int], readings: list[float]
+    ) -> tuple[int, tuple[int, ...], tuple[float | None, ...], dict[int, frozenset[int]]]:
+        """(mask, codes, readings, sets of a class's values) of one row over the home."""
+        full_codes = [0] * self.width
+        full_readings: list[float | None] = [None] * self.width
+        mask = 0
+        sets = {}
+        for j in bits(local_mask):
+            g = self.dims[j]
+            mask |= 1 << g
+            full_codes[g] = codes[j]
+            if j in self.sets_of:
+                sets[g] = self.sets_of[j][codes[j]]
+                full_codes[g] = min(sets[g])
+            r = readings[j]
+            full_readings[g] = None if r != r else r  # NaN: not a reading
+        return mask, tuple(full_codes), tuple(full_readings), sets
 
 
 def _class_sets(samples: Any) -> dict[int, list[frozenset[int]]]:

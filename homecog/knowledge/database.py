@@ -63,7 +63,7 @@ def make_engine(url: str) -> Engine:
             if path and path != ":memory:" and not path.startswith("file:"):
                 folder = Path(path).parent
                 if not folder.is_dir():  # made by whoever chose it, never here (nor /nonexist/)
-                    raise StoreError(f"--db {redact(url)}: no folder {folder}; make it first")
+                    raise StoreError(f"database {redact(url)}: no folder {folder}; make it first")
             engine = create_engine(url, connect_args={"timeout": 60})
 
             @event.listens_for(engine, "connect")
@@ -92,17 +92,17 @@ def make_engine(url: str) -> Engine:
             connect_args["connect_timeout"] = CONNECT_TIMEOUT
         return create_engine(url, pool_pre_ping=True, connect_args=connect_args)
     except (ArgumentError, NoSuchModuleError, ValueError) as e:
-        raise StoreError(f"--db {redact(url)}: not a database URL ({e})") from None
+        raise StoreError(f"database {redact(url)}: not a database URL ({e})") from None
     except ImportError as e:
-        raise StoreError(f"--db {redact(url)}: driver missing ({e.name}); install it with pip") from None
+        raise StoreError(f"database {redact(url)}: driver missing ({e.name}); install it with pip") from None
     except OSError as e:
-        raise StoreError(f"--db {redact(url)}: {e.strerror}") from None
+        raise StoreError(f"database {redact(url)}: {e.strerror}") from None
 
 
 def db_message(url: str, e: BaseException) -> str:
     orig = getattr(e, "orig", None) or e
     text_ = str(orig).strip().splitlines()[0] if str(orig).strip() else type(orig).__name__
-    return f"--db {redact(url)}: cannot use the database: {text_}"
+    return f"database {redact(url)}: cannot use the database: {text_}"
 
 
 def migrate(engine: Engine) -> None:
@@ -120,7 +120,7 @@ def migrate(engine: Engine) -> None:
     except CommandError as e:  # a revision we do not know: a newer homecog made the database
         url = redact(engine.url.render_as_string(hide_password=False))
         raise StoreError(
-            f"--db {url}: a database of a schema this homecog does not know ({e}); "
+            f"database {url}: a database of a schema this homecog does not know ({e}); "
             "use the homecog that made it, or a newer one"
         ) from None
 

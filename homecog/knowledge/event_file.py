@@ -70,7 +70,7 @@ def read_corrections(path: Path, home: Home, user: str) -> list[EventCorrection]
     with the recent past of the household's stream, in the file's order, as a replay has it."""
     problem = user_name_problem(user)
     if problem is not None:
-        raise EvaluationError(f"--user: {problem}")
+        raise EvaluationError(problem)
     order = {name: a for a, name in enumerate(home.service_names)}
     past = RecentPast(home)
     out = []

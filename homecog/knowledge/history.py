@@ -8,7 +8,7 @@ One query, on the index of ``(kind, user, id)``, reads the latest ``limit`` of t
 
 >>> from homecog.home import load_home
 >>> from homecog.knowledge.store import Store
->>> correction_history(Store("sqlite://", load_home("paper"))).total
+>>> correction_history(Store.open("sqlite://", load_home("paper"))).total
 0
 """
 
@@ -95,7 +95,7 @@ def correction_history(store: Store, *, user: str | None = None, limit: int = 50
     except SQLAlchemyError as e:
         orig = getattr(e, "orig", None) or e
         first = (str(orig).strip().splitlines() or [type(orig).__name__])[0]
-        raise StoreError(f"--db {redact(store.url)}: cannot use the database: {first}") from None
+        raise StoreError(f"database {redact(store.url)}: cannot use the database: {first}") from None
     corrections = []
     for row in reversed(rows):
         payload = json.loads(row.payload)

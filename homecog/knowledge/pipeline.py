@@ -98,13 +98,31 @@ def build(
     """Samples from the policy, the tree from the samples, both into the store."""
     start = time.perf_counter()
     policy = ensure_policy(home, q_path, joint=joint, progress=progress)
+    return build_from(home, policy, store, start=start, mode=mode, seed=seed, progress=progress)
+
+
+def build_from(
+    home: Home,
+    policy: Policy,
+    store: Store,
+    *,
+    start: float,
+    mode: str = "multi",
+    seed: int = 0,
+    progress: Progress | None = None,
+    source: str | None = None,
+    policy_file: bytes | None = None,
+) -> BuildResult:
+    """The tree of a policy's samples, saved with them into the store in one transaction
+    (with the home file's ``source`` and the policy's ``.npz`` bytes, where given). ``start``:
+    the :func:`time.perf_counter` at which the build began (its training included)."""
     _say(progress, f"making samples and the {mode} tree, {len(policy.groups)} group(s) ...")
     tree = IHDRTree(home, mode=mode)
     log = SampleLog(seed=seed, joint=policy.joint)
     count = learn_policy(home, policy, tree, seed=seed, log=log)
     _say(progress, "storing the tree and the samples ...")
     seconds = time.perf_counter() - start
-    store.save_build(tree, log, seconds=seconds)
+    store.save_build(tree, log, seconds=seconds, source=source, policy=policy_file)
     return BuildResult(tree=tree, samples=count, seconds=time.perf_counter() - start)
 
 

@@ -51,10 +51,10 @@ import numba
 import numpy as np
 
 from homecog.environment.core import Core
-from homecog.environment.kernels import apply, argmax_allowed, distance
+from homecog.environment.kernels import greedy_walk
 from homecog.environment.tables import Tables
 from homecog.home.classes import Classes, group_classes
-from homecog.home.codec import Point, Space, finite_span
+from homecog.home.codec import Point, Space, reading_in_bin
 from homecog.home.groups import Group, project
 from homecog.home.model import Home
 from homecog.knowledge.relevance import relevance, sufficient_masks
@@ -179,36 +179,16 @@ class SampleSet:
 @_jit
 def greedy_positions(t: Tables, q: np.ndarray, limit: int) -> np.ndarray:
     """For every start state, the step at which the greedy roll-out performs each service."""
-    (
-        n_devices,
-        need_count,
-        offsets,
-        care,
-        want,
-        need_pos,
-        set_mask,
-        set_val,
-        p_ctx,
-        r_start,
-        r_ctx,
-        r_mask,
-        r_val,
-        _,
-    ) = t
-    n_contexts = len(need_count)
-    n_h = 1 << n_devices
+    n_contexts = len(t.need_count)
+    n_h = 1 << t.n_devices
+    services = np.empty(limit, dtype=np.int64)
     out = np.full((n_contexts, n_h, q.shape[1]), -1, dtype=np.int8)
     for c in range(n_contexts):
-        k = need_count[c]
         for h0 in range(n_h):
-            h, n = h0, (1 << k) - 1
-            step = 0
-            while distance(care[c], want[c], h, n) > 0 and step < limit:
-                a = argmax_allowed(q, offsets[c] + (h << k) + n, p_ctx, r_start, r_ctx, r_mask, r_val, c, h)
-                if out[c, h0, a] < 0:
-                    out[c, h0, a] = step
-                h, n = apply(set_mask, set_val, need_pos, c, h, n, a)
-                step += 1
+            count, _ = greedy_walk(t, q, c, h0, (1 << t.need_count[c]) - 1, False, services)
+            for step in range(count):
+                if out[c, h0, services[step]] < 0:
+                    out[c, h0, services[step]] = step
     return out
 
 
@@ -230,13 +210,7 @@ def draw_readings(space: Space, codes: np.ndarray, rng: np.random.Generator) -> 
     for j, dim in enumerate(space.dims):
         if not dim.numeric:
             continue
-        feature = space.home.features[j]
-        bounds = np.array(finite_span(feature.bins)).reshape(-1, 2)  # type: ignore[arg-type]
-        low, high = bounds[codes[:, j], 0], bounds[codes[:, j], 1]
-        if dim.kind == "clock":  # a bin wrapping midnight: draw on the unwrapped span
-            high = np.where(high <= low, high + 24, high)
-        values = np.maximum(np.floor((low + (high - low) * rng.random(n_points)) * 100) / 100, low)
-        numeric[:, j] = values % 24 if dim.kind == "clock" else values
+        numeric[:, j] = reading_in_bin(space.home.features[j], codes[:, j], rng.random(n_points))
     return numeric
 
 

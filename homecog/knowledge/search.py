@@ -137,21 +137,28 @@ class TreeSearch:
         return self._ordered(chosen), known
 
     def _shared_search(self, p: Point) -> tuple[list[tuple[Node, Cluster]], bool]:
+        if self._dense_ok:
+            return self._dense_search(p)
+        index = self._group_index() if self.mode == "multi" else None
+        hits = self._group_hits(index, p) if index is not None else self._walk_search(p)
+        return self._ordered(hits), False if hits else self._idle_responds(p)
+
+    def _dense_search(self, p: Point) -> tuple[list[tuple[Node, Cluster]], bool]:
+        """:meth:`_shared_search` in the dense table of every context's answer."""
         hits: list[tuple[Node, Cluster]] = []
         idle = False
-        if self._dense_ok:
-            row = self._dense_table()[sum(map(operator.mul, p.codes, self._strides))].tolist()
-            for node, i in zip(self._all_services(), row, strict=True):
-                if i >= 0:
-                    if node is self._idle:
-                        idle = True
-                    else:
-                        hits.append((node, node.clusters[i]))
-            return self._ordered(hits), idle
-        index = self._group_index() if self.mode == "multi" else None
-        if index is not None:
-            hits = self._group_hits(index, p)
-            return self._ordered(hits), False if hits else self._idle_responds(p)
+        row = self._dense_table()[sum(map(operator.mul, p.codes, self._strides))].tolist()
+        for node, i in zip(self._all_services(), row, strict=True):
+            if i >= 0:
+                if node is self._idle:
+                    idle = True
+                else:
+                    hits.append((node, node.clusters[i]))
+        return self._ordered(hits), idle
+
+    def _walk_search(self, p: Point) -> list[tuple[Node, Cluster]]:
+        """The services whose clusters respond to ``p``, down the tree (unordered, idle aside)."""
+        hits: list[tuple[Node, Cluster]] = []
         for category in self.root.children:
             # a category is searched when its cluster responds (paper); in multi mode a
             # category keeps no cluster of its own and every category is searched
@@ -161,10 +168,9 @@ class TreeSearch:
                 if node is self._idle:
                     continue  # asked only when no service answers
                 cluster = self._shared_match(node, p)
-                if cluster is None:
-                    continue
-                hits.append((node, cluster))
-        return self._ordered(hits), False if hits else self._idle_responds(p)
+                if cluster is not None:
+                    hits.append((node, cluster))
+        return hits
 
     def _shared_state_version(self) -> int:
         return self._shared_version

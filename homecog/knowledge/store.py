@@ -69,7 +69,6 @@ from homecog.knowledge.statements import (
 from homecog.knowledge.store_log import StoreLog, replay
 from homecog.names import user_name_problem
 
-__all__ = ["Store", "StoreError", "default_url", "migrate", "redact"]
 SAMPLES_PER_ROW = 32768
 CONFLICT_RETRIES = 50  # attempts of a correction that the server aborts for a deadlock
 
@@ -78,37 +77,48 @@ class Store(StoreLog):
     """The knowledge of one home in one database.
 
     >>> from homecog.home import load_home
-    >>> store = Store("sqlite://", load_home("paper"))   # in memory
+    >>> store = Store.open("sqlite://", load_home("paper"))   # in memory
     >>> store.has_tree()
     False
     """
 
-    def __init__(
-        self, url: str | None, home: Home, *, engine: Engine | None = None, replace: bool = False
-    ) -> None:
-        """``engine``: one shared by the stores of many homes, its schema already migrated
-        (:func:`migrate`); it is not closed with the store. ``replace``: a home stored under the
-        same name from another home file is replaced by the next build, not refused."""
+    def __init__(self, url: str, home: Home, engine: Engine, *, own_engine: bool) -> None:
+        """A store over ``engine`` as it is (``own_engine``: closed with the store); :meth:`open`
+        makes one ready to use."""
         self.home = home
-        self.url = url or default_url(home, create=True)
-        self._own_engine = engine is None
-        self.engine = make_engine(self.url) if engine is None else engine
+        self.url = url
+        self._own_engine = own_engine
+        self.engine = engine
         self._versions: dict[str, int] = {}
         self._known_users: set[str] = set()
         self._batch: Connection | None = None  # the transaction corrections share (see batch)
         self._before: Before | None = None  # what a batch's users had before it
         self._build = 0  # the build of the tree last loaded
+
+    @classmethod
+    def open(
+        cls, url: str | None, home: Home, *, engine: Engine | None = None, replace: bool = False
+    ) -> Store:
+        """The store of ``home`` in the database at ``url`` (default: a file under the user's data
+        directory), its schema migrated and the home it holds checked against ``home``.
+
+        ``engine``: one shared by the stores of many homes, its schema already migrated
+        (:func:`migrate`); it is not closed with the store. ``replace``: a home stored under the
+        same name from another home file is replaced by the next build, not refused."""
+        url = url or default_url(home, create=True)
+        store = cls(url, home, make_engine(url) if engine is None else engine, own_engine=engine is None)
         try:
-            if self._own_engine:
-                migrate(self.engine)
+            if store._own_engine:
+                migrate(store.engine)
             if not replace:
-                self._check_home()
+                store._check_home()
         except StoreError:
-            self.close()
+            store.close()
             raise
         except (SQLAlchemyError, DBAPIError, OSError) as e:
-            self.close()
-            raise StoreError(db_message(self.url, e)) from None
+            store.close()
+            raise StoreError(db_message(url, e)) from None
+        return store
 
     # -- schema ---------------------------------------------------------------------------------
     def _check_home(self) -> None:
@@ -116,7 +126,7 @@ class Store(StoreLog):
             row = conn.execute(select(HomeRow.content_hash).where(HomeRow.name == self.home.name)).first()
             if row is not None and row.content_hash != self.home.content_hash:
                 raise StoreError(
-                    f"--db {redact(self.url)}: holds the knowledge of home '{self.home.name}' "
+                    f"database {redact(self.url)}: holds the knowledge of home '{self.home.name}' "
                     f"({row.content_hash[:12]}), not of this file's home '{self.home.name}' "
                     f"({self.home.content_hash[:12]}); name the home otherwise or use another database"
                 )
@@ -177,7 +187,7 @@ class Store(StoreLog):
         with self._tx() as conn:
             home_row = conn.execute(select(HomeRow).where(HomeRow.name == h)).first()
             if home_row is None or home_row.built_at is None:
-                raise StoreError(f"--db {redact(self.url)}: no knowledge tree yet; run homecog build")
+                raise StoreError(f"database {redact(self.url)}: no knowledge tree yet; run homecog build")
             counters = json.loads(home_row.state or "{}")
             state = TreeState(
                 mode=home_row.mode,
@@ -210,7 +220,9 @@ class Store(StoreLog):
             try:
                 tree = IHDRTree.from_state(self.home, state)
             except (ValueError, KeyError):
-                raise StoreError(f"--db {redact(self.url)}: the stored tree does not fit the home") from None
+                raise StoreError(
+                    f"database {redact(self.url)}: the stored tree does not fit the home"
+                ) from None
             self._versions = {}
             for row in conn.execute(select(UserRow.name, UserRow.version).where(UserRow.home == h)):
                 self._versions[row.name] = row.version

@@ -134,7 +134,7 @@ class StoreLog:
             ).all()
         builds = [json.loads(r.payload)["build"] for r in rows if r.kind == "samples"]
         if not builds:
-            raise StoreError(f"--db {redact(self.url)}: the log holds no samples; run homecog build")
+            raise StoreError(f"database {redact(self.url)}: the log holds no samples; run homecog build")
         last = max(builds)
         parts = [r for r in rows if r.kind == "samples" and json.loads(r.payload)["build"] == last]
         parts.sort(key=lambda r: json.loads(r.payload)["part"])
@@ -146,7 +146,7 @@ class StoreLog:
                 for samples in sample_log.regenerate(self.home, logged):
                     tree.learn_many(samples)
             except ValueError as e:
-                raise StoreError(f"--db {redact(self.url)}: {e}") from None
+                raise StoreError(f"database {redact(self.url)}: {e}") from None
         else:
             tree.learn_many(samples_from(self.home, [sample_log.unpack(r.data) for r in parts]))
         for r in rows:

@@ -47,7 +47,7 @@ from homecog.home.groups import Group, device_groups, project
 from homecog.home.model import Home
 from homecog.learning.policy import Policy, round_q
 from homecog.learning.qtable import QTable
-from homecog.learning.sarsa import RunFigures, SarsaConfig, run_episodes, seed_rng, train
+from homecog.learning.sarsa import RunFigures, SarsaConfig, run_table, seed_rng, train
 from homecog.learning.size import check_size
 
 MIN_SWEEPS = 2
@@ -86,23 +86,7 @@ def _learn_group(
             if episodes is not None:
                 pairs = pairs[: episodes - table.episodes]
             starts, firsts = pairs // n_services, pairs % n_services
-            steps += int(
-                run_episodes(
-                    core.tables,
-                    table.q,
-                    table.tried,
-                    len(starts),
-                    table.episodes,
-                    config.alpha,
-                    config.gamma,
-                    config.epsilon_c,
-                    config.epsilon_min,
-                    config.max_steps,
-                    rng,
-                    starts,
-                    firsts,
-                )
-            )
+            steps += run_table(core, table, config, len(starts), table.episodes, rng, starts, firsts)
             table.episodes += len(starts)
             sweep += 1
             if episodes is not None:

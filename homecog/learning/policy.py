@@ -25,7 +25,7 @@ import numpy as np
 from homecog.errors import QTableError
 from homecog.home.groups import Group, device_groups, whole
 from homecog.home.model import Home
-from homecog.learning.qtable import QTable, check_made_for
+from homecog.learning.qtable import MadeFor, QTable, check_made_for
 from homecog.learning.size import exact_states
 from homecog.paths import atomic_write, reading
 
@@ -46,11 +46,9 @@ def round_q(q: np.ndarray) -> np.ndarray:
 
 
 @dataclass
-class Policy:
+class Policy(MadeFor):
     """The Q tables of a home: ``tables[i]`` belongs to ``groups[i]``."""
 
-    home_name: str
-    home_hash: str
     joint: bool
     groups: tuple[Group, ...]
     tables: list[QTable]
@@ -84,18 +82,12 @@ class Policy:
             config=dict(table.config),
         )
 
-    def check_home(self, home: Home, source: str = "the Q table") -> None:
-        """Raise :class:`QTableError` unless this policy was learned for ``home``."""
-        check_made_for(self.home_name, self.home_hash, home, source)
-
     # -- the file ----------------------------------------------------------------------------
     def save(self, path: str | Path) -> Path:
         """Write the policy to ``path`` atomically and return the path."""
         path = Path(path)
         meta = {
-            "format": FORMAT,
-            "home_name": self.home_name,
-            "home_hash": self.home_hash,
+            **self.tag(FORMAT),
             "joint": self.joint,
             "greedy_optimal_rate": self.greedy_optimal_rate,
             "config": self.config,

@@ -34,14 +34,28 @@ def check_made_for(name: str, content_hash: str, home: Home, source: str) -> Non
 
 
 @dataclass
-class QTable:
+class MadeFor:
+    """What a learned file was made for: a home's name and content hash."""
+
+    home_name: str
+    home_hash: str
+
+    def check_home(self, home: Home, source: str = "the Q table") -> None:
+        """Raise :class:`QTableError` unless this was learned for ``home``."""
+        check_made_for(self.home_name, self.home_hash, home, source)
+
+    def tag(self, file_format: int) -> dict[str, Any]:
+        """The first keys of the file's metadata: its format and the home it was made for."""
+        return {"format": file_format, "home_name": self.home_name, "home_hash": self.home_hash}
+
+
+@dataclass
+class QTable(MadeFor):
     """Q values ``q[state, service]`` (float32), which pairs were tried, and the run's record.
 
     ``tried[state, w]`` holds the tried marks of services ``32w .. 32w+31`` as bits.
     """
 
-    home_name: str
-    home_hash: str
     q: np.ndarray
     tried: np.ndarray
     episodes: int = 0
@@ -63,17 +77,11 @@ class QTable:
             config=dict(config or {}),
         )
 
-    def check_home(self, home: Home, source: str = "the Q table") -> None:
-        """Raise :class:`QTableError` unless this table was made for ``home``."""
-        check_made_for(self.home_name, self.home_hash, home, source)
-
     def save(self, path: str | Path) -> Path:
         """Write the table to ``path`` (.npz) atomically and return the path."""
         path = Path(path)
         meta = {
-            "format": FORMAT,
-            "home_name": self.home_name,
-            "home_hash": self.home_hash,
+            **self.tag(FORMAT),
             "episodes": self.episodes,
             "steps": self.steps,
             "greedy_optimal_rate": self.greedy_optimal_rate,

@@ -27,7 +27,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from homecog.environment.core import Core
-from homecog.environment.kernels import best_allowed
+from homecog.environment.kernels import best_allowed, greedy_path
 from homecog.home.classes import group_classes
 from homecog.home.encoding import context_index
 from homecog.home.groups import project
@@ -41,12 +41,7 @@ def greedy_services(
 ) -> list[int]:
     """The services of one table's greedy roll-out from (c, h, n) until the optimum or ``limit``."""
     n = core.full_needs(c) if n is None else n
-    out: list[int] = []
-    while core.distance(c, h, n) > 0 and len(out) < limit:
-        a = int(best_allowed(core.tables, q, c, h, n))
-        out.append(a)
-        h, n, *_ = core.step(c, h, n, a)
-    return out
+    return [int(a) for a in greedy_path(core.tables, q, c, h, n, limit)]
 
 
 class Rollout:

@@ -173,22 +173,10 @@ def run_episodes(
     ``firsts`` is not empty, episode ``e`` begins with service ``firsts[e]``, the policy choosing
     from the second step on (exploring starts over states and services).
     """
-    (
-        n_devices,
-        need_count,
-        offsets,
-        care,
-        want,
-        need_pos,
-        set_mask,
-        set_val,
-        prohibited_ctx,
-        rule_start,
-        rule_ctx,
-        rule_mask,
-        rule_val,
-        w,
-    ) = t
+    n_devices, need_count, offsets, care, want = t.n_devices, t.need_count, t.offsets, t.care, t.want
+    need_pos, set_mask, set_val, w = t.need_pos, t.set_mask, t.set_val, t.weights
+    prohibited_ctx, rule_start, rule_ctx = t.prohibited_ctx, t.rule_start, t.rule_ctx
+    rule_mask, rule_val = t.rule_mask, t.rule_val
     w_terminal, w_progress, w_prohibited, m = w[0], w[1], w[2], w[3]
     n_contexts = len(need_count)
     n_h = 1 << n_devices
@@ -233,6 +221,37 @@ def run_episodes(
 
 
 NO_STARTS = np.zeros(0, dtype=np.int64)
+
+
+def run_table(
+    core: Core,
+    table: QTable,
+    config: SarsaConfig,
+    episodes: int,
+    t0: int,
+    rng: np.ndarray,
+    starts: np.ndarray = NO_STARTS,
+    firsts: np.ndarray = NO_STARTS,
+) -> int:
+    """:func:`run_episodes` on a Q table with the hyperparameters of ``config``; the steps taken."""
+    c = config
+    return int(
+        run_episodes(
+            core.tables,
+            table.q,
+            table.tried,
+            episodes,
+            t0,
+            c.alpha,
+            c.gamma,
+            c.epsilon_c,
+            c.epsilon_min,
+            c.max_steps,
+            rng,
+            starts,
+            firsts,
+        )
+    )
 
 
 def seed_rng(seed: int) -> np.ndarray:
@@ -306,23 +325,7 @@ def train(
     steps = done = 0
     while done < config.episodes:
         n = min(chunk, config.episodes - done)
-        steps += int(
-            run_episodes(
-                core.tables,
-                q_table.q,
-                q_table.tried,
-                n,
-                q_table.episodes + done,
-                config.alpha,
-                config.gamma,
-                config.epsilon_c,
-                config.epsilon_min,
-                config.max_steps,
-                rng,
-                NO_STARTS,
-                NO_STARTS,
-            )
-        )
+        steps += run_table(core, q_table, config, n, q_table.episodes + done, rng)
         done += n
         if progress is not None:
             progress(done, config.episodes)

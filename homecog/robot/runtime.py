@@ -8,7 +8,7 @@ did lately is in its journal.
 >>> from homecog.knowledge.ihdr import IHDRTree
 >>> from homecog.knowledge.store import Store
 >>> home = load_home("paper")
->>> runtime = Runtime(home=home, store=Store("sqlite://", home), tree=IHDRTree(home),
+>>> runtime = Runtime(home=home, store=Store.open("sqlite://", home), tree=IHDRTree(home),
 ...                   source=ManualSource(home))
 >>> runtime.source.switch("lamp", True)        # nobody commanded it: a person's switch
 >>> now = runtime.source.clock()
