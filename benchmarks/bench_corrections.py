@@ -114,7 +114,7 @@ def _tally(t: list[int], predicted: set[str], truth: frozenset[str]) -> tuple[in
     return event
 
 
-def main() -> None:
+def _arguments() -> argparse.Namespace:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--quick", action="store_true", help="300 events, 300 held-out contexts")
     parser.add_argument("--events", type=int, default=1000)
@@ -126,13 +126,16 @@ def main() -> None:
     args = parser.parse_args()
     if args.quick:
         args.events, args.held_out, args.seeds = 300, 300, 1
-    names = [m for m in METHOD_NAMES if m != "paper"]
+    return args
+
+
+def run_all(args: argparse.Namespace, names: list[str]) -> list[dict[str, Any]]:
+    """Every household of every home asked for: its label and every method's figures."""
     rows = []
     for home in homes(args.rooms):
         if args.homes and home.name not in args.homes.split(","):
             continue
-        policy = ensure_policy(home)
-        learned = learn_methods(home, policy, names, seed=0)
+        learned = learn_methods(home, ensure_policy(home), names, seed=0)
         for kind, noisy in HOUSEHOLDS:
             for seed in range(args.seeds):
                 household = make_household(home, kind, seed=seed)
@@ -147,15 +150,17 @@ def main() -> None:
                 label = f"{home.name}: {kind}{', noisy' if noisy else ''} #{seed}"
                 rows.append({"household": label, "methods": figures})
                 print(label, json.dumps({k: v["stream_f1"] for k, v in figures.items()}), file=sys.stderr)
-    if args.json:
-        print(json.dumps(rows))
-        return
+    return rows
+
+
+def print_tables(rows: list[dict[str, Any]], names: list[str], events: int) -> None:
+    """The stream's and the held-out contexts' F1, a table each; the stream's with intervals."""
     columns = [*names, "oracle"]
     for measure, title in (
         ("stream_f1", "prequential F1 over the stream"),
         ("held_out_f1", "F1 on held-out contexts"),
     ):
-        table = Table(title=f"Corrections: {title} ({args.events} events)")
+        table = Table(title=f"Corrections: {title} ({events} events)")
         table.add_column("household")
         for c in columns:
             table.add_column(c, justify="right")
@@ -171,6 +176,16 @@ def main() -> None:
                 cells += [f"{_interval(lead)} ({lead['over']})" if lead else "-", _interval(oracle)]
             table.add_row(row["household"], *cells)
         Console().print(table)
+
+
+def main() -> None:
+    args = _arguments()
+    names = [m for m in METHOD_NAMES if m != "paper"]
+    rows = run_all(args, names)
+    if args.json:
+        print(json.dumps(rows))
+    else:
+        print_tables(rows, names, args.events)
 
 
 def _interval(d: dict[str, Any]) -> str:

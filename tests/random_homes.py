@@ -58,9 +58,8 @@ def _when(draw: st.DrawFn, features: dict[str, list[str]], devices: list[str] | 
     return "{" + ", ".join(parts) + "}"
 
 
-@st.composite
-def homes(draw: st.DrawFn) -> str:
-    """The text of a random home file."""
+def _context(draw: st.DrawFn) -> tuple[list[str], dict[str, list[str]]]:
+    """The ``context:`` lines and each feature's values (its bins' or its own)."""
     clock, bins = draw(_clock())
     features = {
         "clock": bins,
@@ -77,12 +76,12 @@ def homes(draw: st.DrawFn) -> str:
     if draw(st.booleans()):
         features["doing"] = ["rest", "work"]
         lines.append("  doing: {kind: categorical, values: [rest, work]}")
-    n_dev = draw(st.integers(2, 7))
-    devices = [f"{KINDS[i]}{i}" for i in range(n_dev)]
-    rooms = {d: draw(st.sampled_from(ROOMS)) for d in devices}
-    lines.append("devices:")
-    for d in devices:
-        lines.append(f"  {d}: {{room: {rooms[d]}, iot: {str(draw(st.booleans())).lower()}}}")
+    return lines, features
+
+
+def _services(draw: st.DrawFn, devices: list[str], lines: list[str], prohibited: list[str]) -> list[str]:
+    """The ``services:`` lines but the interactions (one on and one off per device, scenes, a
+    pair prohibited by a device state) and their names."""
     lines.append("services:")
     services: list[str] = []
     for d in devices:
@@ -90,18 +89,22 @@ def homes(draw: st.DrawFn) -> str:
         lines.append(f"  Off_{d}: {{category: off, set: {{{d}: off}}}}")
         services += [f"On_{d}", f"Off_{d}"]
     for k in range(draw(st.integers(0, 3))):
-        members = draw(st.lists(st.sampled_from(devices), min_size=2, max_size=min(4, n_dev), unique=True))
+        members = draw(
+            st.lists(st.sampled_from(devices), min_size=2, max_size=min(4, len(devices)), unique=True)
+        )
         sets = ", ".join(f"{d}: {draw(st.sampled_from(['on', 'off']))}" for d in members)
         lines.append(f"  Scene{k}: {{category: scene, set: {{{sets}}}}}")
         services.append(f"Scene{k}")
-    prohibited: list[str] = []
-    if n_dev >= 3 and draw(st.booleans()):
+    if len(devices) >= 3 and draw(st.booleans()):
         a, b, c = draw(st.lists(st.sampled_from(devices), min_size=3, max_size=3, unique=True))
         lines.append(f"  Pair: {{category: pair, set: {{{a}: off, {b}: off}}}}")
         prohibited.append(f"  Pair: [{{when: {{{c}: [on]}}}}]")
         services.append("Pair")
-    interactions = [f"Talk{k}" for k in range(draw(st.integers(0, 2)))]
-    lines += [f"  {t}: {{category: talk}}" for t in interactions]
+    return services
+
+
+def _comfort(draw: st.DrawFn, devices: list[str], features: dict[str, list[str]], lines: list[str]) -> None:
+    """The ``comfort:`` lines: one to three rules a device, sometimes a default."""
     lines.append("comfort:")
     for d in devices:
         rules = [
@@ -111,6 +114,23 @@ def homes(draw: st.DrawFn) -> str:
         if draw(st.booleans()):
             rules.append(f"{{want: {draw(st.sampled_from(['on', 'off']))}}}")
         lines.append(f"  {d}: [{', '.join(rules)}]")
+
+
+@st.composite
+def homes(draw: st.DrawFn) -> str:
+    """The text of a random home file."""
+    lines, features = _context(draw)
+    n_dev = draw(st.integers(2, 7))
+    devices = [f"{KINDS[i]}{i}" for i in range(n_dev)]
+    rooms = {d: draw(st.sampled_from(ROOMS)) for d in devices}
+    lines.append("devices:")
+    for d in devices:
+        lines.append(f"  {d}: {{room: {rooms[d]}, iot: {str(draw(st.booleans())).lower()}}}")
+    prohibited: list[str] = []
+    services = _services(draw, devices, lines, prohibited)
+    interactions = [f"Talk{k}" for k in range(draw(st.integers(0, 2)))]
+    lines += [f"  {t}: {{category: talk}}" for t in interactions]
+    _comfort(draw, devices, features, lines)
     if interactions:
         lines.append("needs:")
         lines += [f"  {t}: [{{when: {draw(_when(features))}}}]" for t in interactions]
