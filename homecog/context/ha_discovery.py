@@ -59,8 +59,6 @@ from homecog.context.mqtt_broker import (
     DEFAULT_PREFIX,
     BrokerClient,
     command_topic,
-    connect,
-    make_client,
     state_topic,
 )
 from homecog.home.model import Home
@@ -169,7 +167,9 @@ def services_state(services: list[str]) -> str:
 class HomeAssistantDiscovery(BrokerClient):
     """homecog on a broker for Home Assistant: the discovery configs, the robot's state, and the
     undo button's presses handed to ``on_undo`` (on a worker thread of its own; what it returns,
-    the action after the undo, becomes the last action's state).
+    the action after the undo, becomes the last action's state). Once connected it publishes every
+    config and ``online`` (again after every reconnection); ``start(wait=False)`` connects in the
+    background, as long as it takes: the robot does not wait for an app.
 
     Against a broker (not run as a doctest)::
 
@@ -202,49 +202,23 @@ class HomeAssistantDiscovery(BrokerClient):
         self._worker = concurrent.futures.ThreadPoolExecutor(1, thread_name_prefix="homecog-undo")
 
     # -- the connection ---------------------------------------------------------------------------
-    def start(self, *, wait: bool = True) -> HomeAssistantDiscovery:
-        """Connect, then publish every config and ``online`` (again after every reconnection).
-        With ``wait``, :class:`MqttError` when the broker does not accept the connection within
-        the timeout; without, it connects in the background, as long as it takes (the robot
-        does not wait for an app)."""
-        if self._client is None:
-            client = make_client(self.address, self.client_id)
-            client.will_set(self._availability, OFFLINE, qos=1, retain=True)
-            client.on_connect = self._on_connect
-            client.on_disconnect = lambda *a: self._connected.clear()
-            client.on_subscribe = lambda *a: self._connected.set()
-            client.on_message = self._on_message
-            if wait:
-                connect(client, self.address, self._connected, self.connect_timeout)
-            else:
-                client.connect_async(self.address.host, self.address.port, keepalive=30)
-                client.loop_start()
-            self._client = client
-        return self
+    def _prepare(self, client: mqtt.Client) -> None:
+        """The broker's last will: ``offline`` when homecog goes without stopping."""
+        client.will_set(self._availability, OFFLINE, qos=1, retain=True)
 
-    def stop(self) -> None:
-        """Remove every config and state published (empty retained payloads), say ``offline``,
-        and disconnect: the entities leave Home Assistant."""
-        client, self._client = self._client, None
+    def _closing(self, client: mqtt.Client | None) -> None:
+        """Remove every config and state published (empty retained payloads) before saying
+        ``offline``: the entities leave Home Assistant."""
         self._worker.shutdown(wait=True)
-        if client is None:
+        if client is None or not self._connected.is_set():
             return
-        if self._connected.is_set():
-            with self._lock:
-                topics = [*self.configs, *self._states]
-            sent = [client.publish(t, b"", qos=1, retain=True) for t in topics]
-            sent.append(client.publish(self._availability, b"", qos=1, retain=True))
-            deadline = time.monotonic() + self.connect_timeout
-            for message in sent:
-                message.wait_for_publish(max(deadline - time.monotonic(), 0.01))
-        client.disconnect()
-        client.loop_stop()
-
-    def __enter__(self) -> HomeAssistantDiscovery:
-        return self.start()
-
-    def __exit__(self, *exc: object) -> None:
-        self.stop()
+        with self._lock:
+            topics = [*self.configs, *self._states]
+        sent = [client.publish(t, b"", qos=1, retain=True) for t in topics]
+        sent.append(client.publish(self._availability, b"", qos=1, retain=True))
+        deadline = time.monotonic() + self.connect_timeout
+        for message in sent:
+            message.wait_for_publish(max(deadline - time.monotonic(), 0.01))
 
     # -- the robot's state ----------------------------------------------------------------------
     def services(self, services: list[str], *, explanations: list[Any], user: str) -> None:

@@ -37,7 +37,7 @@ import ssl
 import threading
 import uuid
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Self
 from urllib.parse import unquote, urlsplit
 
 import paho.mqtt.client as mqtt
@@ -158,6 +158,71 @@ class BrokerClient:
         self.address = parse_url(url)  # a bad URL fails here, before anything starts
         self._connected = threading.Event()
         self._client: mqtt.Client | None = None
+
+    # -- the connection ---------------------------------------------------------------------------
+    def start(self, *, wait: bool = True) -> Self:
+        """Connect (once) and start the network thread, which reconnects by itself. With
+        ``wait``, :class:`MqttError` when the broker cannot be reached or does not accept the
+        connection within ``connect_timeout`` seconds; without, it connects in the background,
+        as long as it takes."""
+        if self._client is None:
+            client = make_client(self.address, self.client_id)
+            self._prepare(client)
+            client.on_connect = self._on_connect
+            client.on_disconnect = self._on_disconnect
+            client.on_subscribe = self._on_subscribe
+            client.on_message = self._on_message
+            if wait:
+                connect(client, self.address, self._connected, self.connect_timeout)
+            else:
+                client.connect_async(self.address.host, self.address.port, keepalive=30)
+                client.loop_start()
+            self._client = client
+        return self
+
+    def stop(self) -> None:
+        """Disconnect and stop the network thread."""
+        self._close()
+
+    def __enter__(self) -> Self:
+        return self.start()
+
+    def __exit__(self, *exc: object) -> None:
+        self.stop()
+
+    def _close(self) -> mqtt.Client | None:
+        """Forget the client, let :meth:`_closing` see it, then disconnect it and stop its
+        network thread; the client that was (``None`` when not started)."""
+        client, self._client = self._client, None
+        self._closing(client)
+        if client is not None:
+            client.disconnect()
+            client.loop_stop()
+        return client
+
+    def _prepare(self, client: mqtt.Client) -> None:
+        """What the client needs before it connects (nothing here)."""
+
+    def _closing(self, client: mqtt.Client | None) -> None:
+        """What is done as the client stops, before it disconnects (nothing here)."""
+
+    # -- paho's callbacks (its network thread) ---------------------------------------------------
+    def _on_connect(
+        self, client: mqtt.Client, userdata: Any, flags: Any, reason: Any, props: Any
+    ) -> None:  # pragma: no cover - each client says its own
+        raise NotImplementedError
+
+    def _on_message(
+        self, client: mqtt.Client, userdata: Any, message: mqtt.MQTTMessage
+    ) -> None:  # pragma: no cover - each client says its own
+        raise NotImplementedError
+
+    def _on_subscribe(self, *args: Any) -> None:
+        """Connected once subscribed: nothing published after :meth:`start` returns is missed."""
+        self._connected.set()
+
+    def _on_disconnect(self, *args: Any) -> None:
+        self._connected.clear()
 
     def _refused(self, reason: Any) -> bool:
         """Whether the broker refused the connection (logged, by the client's own module)."""

@@ -18,8 +18,6 @@ from homecog.context.mqtt_broker import (
     DEFAULT_PREFIX,
     BrokerClient,
     command_topic,
-    connect,
-    make_client,
     state_topic,
 )
 from homecog.errors import ContextError
@@ -58,18 +56,6 @@ class MqttPublisher(BrokerClient):
         self._pending: list[mqtt.MQTTMessageInfo] = []
         self._lock = threading.Lock()  # publish is called from the simulation and paho threads
 
-    def start(self) -> MqttPublisher:
-        """Connect; raises :class:`MqttError` when the broker cannot be reached."""
-        if self._client is None:
-            client = make_client(self.address, self.client_id)
-            client.on_connect = self._on_connect
-            client.on_disconnect = lambda *a: self._connected.clear()
-            client.on_message = self._on_message
-            client.on_subscribe = lambda *a: self._connected.set()
-            connect(client, self.address, self._connected, self.connect_timeout)
-            self._client = client
-        return self
-
     def flush(self, timeout: float = CONNECT_TIMEOUT) -> bool:
         """Wait (at most ``timeout`` s) until the broker has every published value."""
         deadline = time.monotonic() + timeout
@@ -90,16 +76,7 @@ class MqttPublisher(BrokerClient):
         """Send what is still queued, then disconnect (retained states stay on the broker)."""
         if self._client is not None and self._connected.is_set():
             self.flush()
-        client, self._client = self._client, None
-        if client is not None:
-            client.disconnect()
-            client.loop_stop()
-
-    def __enter__(self) -> MqttPublisher:
-        return self.start()
-
-    def __exit__(self, *exc: object) -> None:
-        self.stop()
+        self._close()
 
     def publish(self, snapshot: Mapping[str, object], *, everything: bool = False) -> int:
         """Publish the values of ``snapshot`` that changed since the last call (all of them with

@@ -33,8 +33,6 @@ from homecog.context.mqtt_broker import (
     DEFAULT_PREFIX,
     BrokerClient,
     command_topic,
-    connect,
-    make_client,
 )
 from homecog.errors import ContextError
 from homecog.home.codec import normalize
@@ -85,26 +83,9 @@ class MqttSource(BrokerClient, ConnectedSource):
         self._base = f"{prefix}/{home.name}"
 
     # -- lifecycle -------------------------------------------------------------------
-    def start(self) -> MqttSource:
-        """Connect, subscribe and follow the state topics; raises :class:`MqttError` when the
-        broker cannot be reached within ``connect_timeout`` seconds."""
-        if self._client is not None:
-            return self
-        client = make_client(self.address, self.client_id)
-        client.on_connect = self._on_connect
-        client.on_disconnect = self._on_disconnect
-        client.on_subscribe = self._on_subscribe
-        client.on_message = self._on_message
-        connect(client, self.address, self._connected, self.connect_timeout)
-        self._client = client
-        return self
-
     def stop(self) -> None:
         """Disconnect and stop the network thread."""
-        client, self._client = self._client, None
-        if client is not None:
-            client.disconnect()
-            client.loop_stop()
+        if self._close() is not None:
             self._connected.clear()
 
     # -- the context -------------------------------------------------------------------

@@ -41,7 +41,7 @@ from typing import Any
 
 from homecog.errors import ContextError
 from homecog.home.model import Device, Feature, find_named, reading_text
-from homecog.home.shapes import Fail, check_keys, kind_of, mapped_names, mapping_of
+from homecog.home.shapes import Fail, check_keys, kind_of, mapped_names, mapping_of, mapping_with_keys
 from homecog.home.states import state_word
 
 ENTITY_ID = re.compile(r"^[a-z0-9_]+\.[a-z0-9_]+$")
@@ -218,8 +218,7 @@ def parse_home_assistant(
     if section is None:
         return None
     path = "home_assistant"
-    section = mapping_of(section, path, fail)
-    check_keys(section, path, ("features", "devices"), fail)
+    section = mapping_with_keys(section, path, ("features", "devices"), fail)
     fmaps, dmaps = mapped_names(section, path, features, devices, fail)
     return HomeAssistantMap(
         features=tuple(

@@ -56,7 +56,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from homecog.home.model import Device, Feature, find_named, format_number
-from homecog.home.shapes import Fail, check_keys, kind_of, mapped_names, mapping_of
+from homecog.home.shapes import Fail, check_keys, kind_of, mapped_names, mapping_of, mapping_with_keys
 from homecog.home.states import state_word
 
 QUIET, HOLD = 10.0, 30.0  # minutes
@@ -127,8 +127,7 @@ def parse_log(
     if section is None:
         return None
     path = "log"
-    section = _mapping(section, path, fail)
-    check_keys(section, path, ("features", "devices", "quiet"), fail)
+    section = mapping_with_keys(section, path, ("features", "devices", "quiet"), fail, kind=_kind)
     quiet = _minutes(section.get("quiet", QUIET), f"{path}.quiet", fail)
     fmaps, dmaps = mapped_names(section, path, features, devices, fail, kind=_kind)
     mapped = [_device(d.name, dmaps[d.name], f"{path}.devices.{d.name}", fail) for d in devices]

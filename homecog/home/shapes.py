@@ -86,6 +86,16 @@ def check_keys(
             raise fail(path, f"missing key '{key}'")
 
 
+def mapping_with_keys(
+    value: object, path: str, allowed: tuple[str, ...], fail: Fail, *, kind: Callable[[object], str] = kind_of
+) -> dict[Any, Any]:
+    """``value`` as a mapping (``kind`` words what it is instead) whose every key is one of
+    ``allowed``."""
+    value = mapping_of(value, path, fail, kind=kind)
+    check_keys(value, path, allowed, fail)
+    return value
+
+
 def numbers(value: object, path: str, fail: Fail, n: int, unit: str = "metres") -> tuple[float, ...]:
     """A list of ``n`` finite numbers (a point, a size, a segment in ``unit``).
 
