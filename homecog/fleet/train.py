@@ -22,7 +22,7 @@ from pathlib import Path
 
 from homecog.errors import FleetError, HomecogError, HomeFileError, StoreError
 from homecog.home.validator import load_home_text
-from homecog.knowledge.database import db_message, make_engine, migrate, redact
+from homecog.knowledge.database import db_message, make_engine, migrate
 from homecog.knowledge.store import Store
 from homecog.knowledge.store_log import stored_homes
 from homecog.text_files import HOME_FILE_LIMIT, read_text
@@ -213,4 +213,4 @@ def fleet_train(
     return results, time.perf_counter() - start
 
 
-__all__ = ["HomeResult", "fleet_train", "home_files", "learn_home", "redact"]
+__all__ = ["HomeResult", "fleet_train", "home_files", "learn_home"]
