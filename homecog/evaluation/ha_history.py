@@ -39,7 +39,7 @@ from pathlib import Path
 from typing import Any
 
 from homecog.errors import ContextError, HomeAssistantError
-from homecog.evaluation.event_stream import EventStream, LogRow, Reader, Skip, service_for
+from homecog.evaluation.event_stream import EventStream, LogRow, Reader, Skip
 from homecog.home.home_assistant import NO_READING, DeviceEntity, FeatureEntity, feature_value, nearest
 from homecog.home.model import Feature, Home
 
@@ -53,7 +53,7 @@ NEEDED = {
     "states_meta": ("metadata_id", "entity_id"),
 }  # fmt: skip
 REASONS = ("by_automation", "by_homecog", "unreadable", "incomplete", "no_service")
-__all__ = ["HistoryResult", "log_rows", "read_history", "recorder_url", "service_for"]
+__all__ = ["HistoryResult", "log_rows", "read_history", "recorder_url"]
 
 
 @dataclass

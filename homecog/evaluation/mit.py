@@ -46,7 +46,7 @@ from homecog.evaluation.log_writer import ACTIVITY, DEVICE, PRESENCE, LogWriter,
 from homecog.home import load_home
 from homecog.text_files import check_file
 
-__all__ = ["behavior_of", "camel", "convert", "illumination", "read_activities", "read_sensors", "slug"]
+__all__ = ["behavior_of", "convert", "illumination", "read_activities", "read_sensors"]
 
 PLACE = {"latitude": 42.3601, "longitude": -71.0942, "tz": "America/New_York", "name": "Cambridge, MA"}
 LUX_PER_WATT = 110.0
