@@ -143,7 +143,7 @@ def test_simulate_writes_the_bag_and_never_overwrites_one(tmp_path: Path) -> Non
     again = subprocess.run(args, capture_output=True, text=True, timeout=120)
     assert (again.returncode, again.stderr) == (
         2,
-        f"homecog: error: --bag {out}: exists; a bag is written into a new folder\n",
+        f"homecog: error: bag {out}: exists; a bag is written into a new folder\n",
     )
 
 

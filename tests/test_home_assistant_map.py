@@ -288,7 +288,7 @@ def test_the_ha_commands_say_what_is_wrong_in_one_line(
                 "--since",
                 "yesterday",
             ],
-            "--since 'yesterday': expected an ISO 8601 date or time, e.g. 2024-03-01T07:00",
+            "since 'yesterday': expected an ISO 8601 date or time, e.g. 2024-03-01T07:00",
         ),
     ]
     for argv, message in cases:

@@ -47,7 +47,7 @@ def check_truth(home: Home, truth: Home) -> None:
     problems = is_compatible(truth, home)
     if problems:
         raise EvaluationError(
-            f"--truth {truth.source}: not compatible with home '{home.name}': {'; '.join(problems)}"
+            f"truth home {truth.source}: not compatible with home '{home.name}': {'; '.join(problems)}"
         )
 
 
@@ -199,7 +199,7 @@ def run(
         cases = load_scenarios(scenarios, home, truth)
     else:
         if scenarios < 1:
-            raise EvaluationError(f"--scenarios must be at least 1, got {scenarios}")
+            raise EvaluationError(f"the number of scenarios must be at least 1, got {scenarios}")
         cases = random_scenarios(home, scenarios, seed=seed, truth=truth)
     policy = ensure_policy(home, joint=joint, progress=progress)
     learned = learn_methods(

@@ -132,7 +132,7 @@ def read_history(
     mapping = home.home_assistant
     if mapping is None:
         raise HomeAssistantError(f"{home.source}: no home_assistant section; see homecog ha scaffold")
-    start, end = _parse_time(since, "--since"), _parse_time(until, "--until")
+    start, end = _parse_time(since, "since"), _parse_time(until, "until")
     url = recorder_url(recorder)
     shown = recorder if "://" not in recorder else recorder.split("@")[-1]
     engine = create_engine(url)

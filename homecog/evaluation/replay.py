@@ -106,7 +106,7 @@ def _predictions_file(path: Path | None) -> Iterator[TextIO | None]:
     try:
         f = path.open("w", encoding="utf-8", buffering=1)
     except OSError as e:
-        raise EvaluationError(f"--predictions {path}: cannot write there: {e.strerror}") from None
+        raise EvaluationError(f"predictions file {path}: cannot write there: {e.strerror}") from None
     with f:
         yield f
 

@@ -150,7 +150,7 @@ def run_ray(
             else:
                 ray.init(address=address, **QUIET)
         except (ConnectionError, RuntimeError, ValueError) as e:
-            raise FleetError(f"--ray {address or 'local'}: cannot start or reach Ray: {e}") from None
+            raise FleetError(f"Ray at {address or 'local'}: cannot start or reach it: {e}") from None
         started = True
     try:
         task = ray.remote(num_cpus=1, max_retries=0)(learn_home)

@@ -60,10 +60,10 @@ def check_bag_folder(path: Path) -> None:
     """Fail before the simulation, not after it, when the bag cannot be written there: the folder
     must not exist (a bag is never overwritten) and its parent must be writable."""
     if path.exists():
-        raise PlanningError(f"--bag {path}: exists; a bag is written into a new folder")
+        raise PlanningError(f"bag {path}: exists; a bag is written into a new folder")
     parent = next((p for p in path.parents if p.exists()), Path("."))
     if not parent.is_dir():
-        raise PlanningError(f"--bag {path}: cannot write there: {parent} is not a directory")
+        raise PlanningError(f"bag {path}: cannot write there: {parent} is not a directory")
 
 
 def _qos(latched: bool) -> list[Any]:
