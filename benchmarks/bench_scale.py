@@ -31,7 +31,7 @@ from rich.console import Console
 from rich.table import Table
 
 sys.path.insert(0, str(Path(__file__).parent))
-from homes import home_text
+from homes import coupled_home_text, home_text
 from scene_homes import scene_home_text
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -182,18 +182,6 @@ def plot(rows: list[dict[str, Any]], path: Path) -> None:
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
-
-
-def coupled_home_text(n: int) -> str:
-    """A home whose one service ties ``n`` devices into one group (2^n device states)."""
-    devices = ", ".join(f"d{i}: {{}}" for i in range(n))
-    every = ", ".join(f"d{i}: off" for i in range(n))
-    comfort = "\n".join(f"  d{i}: [{{want: off}}]" for i in range(n))
-    services = "\n".join(f"  On{i}: {{category: on, set: {{d{i}: on}}}}" for i in range(n))
-    return (
-        f"name: coupled\ncontext: {{who: {{kind: categorical, values: [a, b]}}}}\ndevices: {{{devices}}}\n"
-        f"services:\n  AllOff: {{category: off, set: {{{every}}}}}\n{services}\ncomfort:\n{comfort}\n"
-    )
 
 
 def refusal_seconds(folder: Path, n: int = 34, repeats: int = 5) -> float:

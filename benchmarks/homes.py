@@ -165,3 +165,15 @@ def _layout(names: list[str]) -> list[str]:
 
 if __name__ == "__main__":
     sys.stdout.write(home_text(int(sys.argv[1]) if len(sys.argv) > 1 else 8))
+
+
+def coupled_home_text(n: int) -> str:
+    """A home whose one service ties ``n`` devices into one group (2^n device states)."""
+    devices = ", ".join(f"d{i}: {{}}" for i in range(n))
+    every = ", ".join(f"d{i}: off" for i in range(n))
+    comfort = "\n".join(f"  d{i}: [{{want: off}}]" for i in range(n))
+    services = "\n".join(f"  On{i}: {{category: on, set: {{d{i}: on}}}}" for i in range(n))
+    return (
+        f"name: coupled\ncontext: {{who: {{kind: categorical, values: [a, b]}}}}\ndevices: {{{devices}}}\n"
+        f"services:\n  AllOff: {{category: off, set: {{{every}}}}}\n{services}\ncomfort:\n{comfort}\n"
+    )

@@ -295,21 +295,13 @@ def test_home_check_names_the_group_and_start_states_of_conflicting_rules(tmp_pa
 
 
 # -- sizes -----------------------------------------------------------------------------------------
-def _coupled_home(n: int) -> str:
-    devices = ", ".join(f"d{i}: {{}}" for i in range(n))
-    every = ", ".join(f"d{i}: off" for i in range(n))
-    comfort = "\n".join(f"  d{i}: [{{want: off}}]" for i in range(n))
-    services = "\n".join(f"  On{i}: {{category: on, set: {{d{i}: on}}}}" for i in range(n))
-    return (
-        f"name: coupled\ncontext: {{who: {{kind: categorical, values: [a, b]}}}}\ndevices: {{{devices}}}\n"
-        f"services:\n  AllOff: {{category: off, set: {{{every}}}}}\n{services}\ncomfort:\n{comfort}\n"
-    )
-
-
 def test_a_group_too_large_is_refused_naming_it(tmp_path):
     # (counted, never enumerated: benchmarks/bench_scale.py measures how fast)
     path = tmp_path / "coupled.yaml"
-    path.write_text(_coupled_home(34))
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    from homes import coupled_home_text
+
+    path.write_text(coupled_home_text(34))
     home = load_home(path)
     with pytest.raises(HomeTooLargeError) as e:
         check_size(home)
