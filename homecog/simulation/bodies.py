@@ -20,12 +20,12 @@ simulate --robot`` and ``homecog up --robot`` choose between.
 from __future__ import annotations
 
 import threading
-from collections.abc import Callable
+from typing import Unpack
 
 from homecog.errors import PlanningError, UsageProblemError
 from homecog.home.model import Home
-from homecog.planning import Acting, Domain, Plan, State, act
-from homecog.simulation.interface import Body
+from homecog.planning import Acting, Plan, State, act
+from homecog.simulation.interface import Body, BodyOptions
 from homecog.simulation.simulate import SimulationResult
 
 BODIES = ("builtin", "pyrobosim")
@@ -37,13 +37,13 @@ def make_body(
     home: Home,
     world: State | None = None,
     *,
-    switch: Callable[[str, bool], object] | None = None,
-    domain: Domain | None = None,
     planner: str | None = None,
+    **options: Unpack[BodyOptions],
 ) -> Body:
-    """The body ``kind`` in ``home`` (which needs a layout), from ``world``; ``planner`` is
-    pyrobosim's path planner (its A* by default). :class:`UsageProblemError` for an unknown
-    body, :class:`~homecog.errors.DependencyNotInstalledError` for pyrobosim without its extra."""
+    """The body ``kind`` in ``home`` (which needs a layout), from ``world``, with ``options``
+    (:class:`~homecog.simulation.interface.Body`'s); ``planner`` is pyrobosim's path planner
+    (its A* by default). :class:`UsageProblemError` for an unknown body,
+    :class:`~homecog.errors.DependencyNotInstalledError` for pyrobosim without its extra."""
     if kind == "builtin":
         if planner is not None:
             raise UsageProblemError(
@@ -51,7 +51,7 @@ def make_body(
             )
         from homecog.simulation.body import SimulatedRobot
 
-        return SimulatedRobot(home, world, switch=switch, domain=domain)
+        return SimulatedRobot(home, world, **options)
     if kind == "pyrobosim":
         from homecog.simulation.pyrobosim_body import PyRoboSimBody
         from homecog.simulation.pyrobosim_world import PLANNERS
@@ -61,7 +61,7 @@ def make_body(
                 f"--planner: unknown path planner {planner!r}; expected one of {', '.join(PLANNERS)}"
             )
 
-        return PyRoboSimBody(home, world, switch=switch, domain=domain, planner=planner or "astar")
+        return PyRoboSimBody(home, world, planner=planner or "astar", **options)
     raise UsageProblemError(f"--robot: unknown body {kind!r}; expected one of {', '.join(BODIES)}")
 
 

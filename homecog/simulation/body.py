@@ -26,56 +26,27 @@ plan 1: ('pick', 'cup', 'dispenser') failed: 'cup' is not at 'dispenser'
 
 from __future__ import annotations
 
-from collections.abc import Callable
-
 from homecog.errors import PlanningError
-from homecog.home.model import Home
-from homecog.planning import Domain, State, make_domain
+from homecog.planning import State
 from homecog.simulation.interface import Body, Outcome
-from homecog.simulation.robot import DiffDrive
 from homecog.simulation.simulate import Simulation, SimulationResult
 
 
 class SimulatedRobot(Body):
     """A robot on a home's floor plan, homecog's own simulator: a differential drive on A* paths.
-
-    Parameters
-    ----------
-    home
-        The home; it needs a layout.
-    world
-        Where the robot and the objects are (default: the home's initial state).
-    switch
-        ``switch(device, on)``: how a switch reaches the home (a context source's
-        :meth:`switch`); without it, the devices live in the simulation alone.
-    robot, domain
-        The robot's limits and the planning domain (default: made from the home).
-    """
+    Its parameters are :class:`~homecog.simulation.interface.Body`'s."""
 
     name = "builtin"
     planner = "astar"  # homecog's own A* on the occupancy grid (homecog.simulation.grid)
-
-    def __init__(
-        self,
-        home: Home,
-        world: State | None = None,
-        *,
-        switch: Callable[[str, bool], object] | None = None,
-        robot: DiffDrive | None = None,
-        domain: Domain | None = None,
-    ) -> None:
-        self.home = home
-        self.switch = switch
-        self.domain = domain or make_domain(home)
-        self.simulation = Simulation(home, world, robot=robot, domain=self.domain)
+    simulation: Simulation
 
     @property
     def world(self) -> State:
         """The state of the world as it is (the simulation's), not as the robot believes it."""
         return self.simulation.state
 
-    def start(self, world: State) -> None:
-        self.simulation = Simulation(self.home, world, robot=self.simulation.robot, domain=self.domain)
+    def start(self, world: State | None = None) -> None:
+        self.simulation = Simulation(self.home, world, robot=self.diffdrive, domain=self.domain)
 
     def observe(self) -> State:
         """What the robot sees of the world: all of it."""
@@ -84,31 +55,7 @@ class SimulatedRobot(Body):
     def result(self) -> SimulationResult:
         return self.simulation.result()
 
-    def move(self, origin: str, target: str) -> Outcome:
-        return self._run(("move", origin, target))
-
-    def pick(self, obj: str, place: str) -> Outcome:
-        return self._run(("pick", obj, place))
-
-    def pour(self, obj: str, place: str) -> Outcome:
-        return self._run(("pour", obj, place))
-
-    def hand_over(self, obj: str, who: str) -> Outcome:
-        return self._run(("hand_over", obj, who))
-
-    def speak(self, text: str) -> Outcome:
-        return self._run(("speak", text))
-
-    def switch_iot(self, device: str, setting: str) -> Outcome:
-        return self._run(("switch_iot", device, setting))
-
-    def switch_by_hand(self, device: str, setting: str) -> Outcome:
-        return self._run(("switch_by_hand", device, setting))
-
-    def dock(self, place: str) -> Outcome:
-        return self._run(("dock", place))
-
-    def _run(self, action: tuple[str, ...]) -> Outcome:
+    def _act(self, action: tuple[str, ...]) -> Outcome:
         """Check ``action`` against the world, switch the home for a switch, then simulate it."""
         why = self.domain.why_not(self.simulation.state, action)
         if why is not None:

@@ -31,11 +31,13 @@ from __future__ import annotations
 import abc
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, TypedDict
 
 from homecog.errors import CommandError
-from homecog.planning import Domain, State
+from homecog.home.model import Home
+from homecog.planning import Domain, State, make_domain
 from homecog.planning.acting import Command
+from homecog.simulation.robot import DiffDrive
 
 if TYPE_CHECKING:
     from homecog.simulation.simulate import SimulationResult
@@ -60,26 +62,62 @@ class Outcome:
         return cls(False, message)
 
 
-class Body(abc.ABC):
-    """A robot that carries atomic actions out. Subclasses implement every action of
-    :data:`ACTIONS`, :meth:`start`, :meth:`observe` and :meth:`result`; ``name`` says which
-    body it is (``builtin``, ``pyrobosim``), ``planner`` its path planner's name and ``domain``
-    the planning domain it acts in.
+class BodyOptions(TypedDict, total=False):
+    """What a body is made with beside the home and the world: :class:`Body`'s keywords."""
 
-    ``switch(device, on)`` (a context source's), when given, is how a switch reaches the home:
-    a body calls it for ``switch_iot`` and, once at the device, for ``switch_by_hand``.
+    switch: Callable[[str, bool], object] | None
+    robot: DiffDrive | None
+    domain: Domain | None
+
+
+class Body(abc.ABC):
+    """A robot that carries atomic actions out. Subclasses implement :meth:`_act`, which every
+    action's method of :data:`ACTIONS` calls (a body may override a method of its own),
+    :meth:`start`, :meth:`observe` and :meth:`result`; ``name`` says which body it is
+    (``builtin``, ``pyrobosim``) and ``planner`` its path planner's name.
+
+    Parameters
+    ----------
+    home
+        The home; it needs a layout.
+    world
+        Where the robot and the objects are at the start (default: the home's initial state).
+    switch
+        ``switch(device, on)``: how a switch reaches the home (a context source's
+        :meth:`switch`); a body calls it for ``switch_iot`` and, once at the device, for
+        ``switch_by_hand``. Without it, the devices live in the simulation alone.
+    robot
+        The robot's size and speeds (homecog's own by default, so that runs compare).
+    domain
+        The planning domain it acts in (default: made from the home).
     """
 
     name: str
     planner: str
-    domain: Domain
-    switch: Callable[[str, bool], object] | None
+
+    def __init__(
+        self,
+        home: Home,
+        world: State | None = None,
+        *,
+        switch: Callable[[str, bool], object] | None = None,
+        robot: DiffDrive | None = None,
+        domain: Domain | None = None,
+    ) -> None:
+        self.home, self.switch = home, switch
+        self.domain = domain or make_domain(home)
+        self.diffdrive = robot or DiffDrive()
+        self._prepare()
+        self.start(world)
+
+    def _prepare(self) -> None:  # noqa: B027  a hook: most bodies need nothing
+        """What the body needs before its first run (nothing here)."""
 
     # -- the run ------------------------------------------------------------------------------
     @abc.abstractmethod
-    def start(self, world: State) -> None:
-        """Begin a new run (a new timeline and trajectory) from ``world``: the robot, the objects
-        and the devices put where it says."""
+    def start(self, world: State | None = None) -> None:
+        """Begin a new run (a new timeline and trajectory) from ``world`` (default: the home's
+        initial state): the robot, the objects and the devices put where it says."""
 
     @abc.abstractmethod
     def observe(self) -> State:
@@ -89,38 +127,43 @@ class Body(abc.ABC):
     def result(self) -> SimulationResult:
         """The run so far: the actions done, their timeline, the trajectory and the devices."""
 
-    # -- the actions ----------------------------------------------------------------------------
-    @abc.abstractmethod
+    # -- the actions: each carried out by _act ------------------------------------------------
     def move(self, origin: str, target: str) -> Outcome:
         """Go from the place ``origin`` to the place (or room) ``target``."""
+        return self._act(("move", origin, target))
 
-    @abc.abstractmethod
     def pick(self, obj: str, place: str) -> Outcome:
         """Take ``obj`` from ``place``, where the robot is, with empty hands."""
+        return self._act(("pick", obj, place))
 
-    @abc.abstractmethod
     def pour(self, obj: str, place: str) -> Outcome:
         """Fill the held ``obj`` at ``place`` (its source, where the robot is)."""
+        return self._act(("pour", obj, place))
 
-    @abc.abstractmethod
     def hand_over(self, obj: str, who: str) -> Outcome:
         """Give the held ``obj`` to ``who``, at whose place the robot is."""
+        return self._act(("hand_over", obj, who))
 
-    @abc.abstractmethod
     def speak(self, text: str) -> Outcome:
         """Say ``text`` to the user."""
+        return self._act(("speak", text))
 
-    @abc.abstractmethod
     def switch_iot(self, device: str, setting: str) -> Outcome:
         """Switch ``device`` ``on`` or ``off`` by an IoT command."""
+        return self._act(("switch_iot", device, setting))
 
-    @abc.abstractmethod
     def switch_by_hand(self, device: str, setting: str) -> Outcome:
         """Switch ``device`` ``on`` or ``off`` by hand, at the device."""
+        return self._act(("switch_by_hand", device, setting))
 
-    @abc.abstractmethod
     def dock(self, place: str) -> Outcome:
         """Dock at the charger ``place``, where the robot is."""
+        return self._act(("dock", place))
+
+    @abc.abstractmethod
+    def _act(self, action: tuple[str, ...]) -> Outcome:
+        """Carry ``action`` (its name and arguments) out in the world: checked against it, then
+        done, or failed and why."""
 
     # -- for acting -------------------------------------------------------------------------------
     def carry_out(self, action: tuple[str, ...]) -> Outcome:

@@ -35,17 +35,16 @@ import logging
 import tempfile
 from collections.abc import Callable, Iterator
 from pathlib import Path
-from typing import Any
+from typing import Any, Unpack
 
 import numpy as np
 
 from homecog.errors import DependencyNotInstalledError, PlanningError
 from homecog.home.model import Home
-from homecog.planning import Domain, State, initial_state, make_domain
+from homecog.planning import State, initial_state
 from homecog.planning.state import HELD
-from homecog.simulation.interface import Body, Outcome
+from homecog.simulation.interface import Body, BodyOptions, Outcome
 from homecog.simulation.pyrobosim_world import _rooms, place_pose, pyrobosim_world
-from homecog.simulation.robot import DiffDrive
 from homecog.simulation.simulate import Simulation, SimulationResult
 
 INSTALL = "pip install 'homecog[pyrobosim]'"
@@ -71,16 +70,8 @@ class PyRoboSimBody(Body):
 
     Parameters
     ----------
-    home
-        The home; it needs a layout.
-    world
-        Where the robot and the objects are at the start (default: the home's initial state).
-    switch
-        ``switch(device, on)``: how a switch reaches the home (a context source's).
-    robot
-        The robot's size and speeds (homecog's own by default, so that runs compare).
-    domain
-        The planning domain (default: made from the home).
+    home, world, switch, robot, domain
+        As for every :class:`~homecog.simulation.interface.Body`.
     planner
         pyrobosim's path planner: ``astar`` (default), ``rrt``, ``prm`` or ``world_graph``.
     seed
@@ -95,21 +86,23 @@ class PyRoboSimBody(Body):
         home: Home,
         world: State | None = None,
         *,
-        switch: Callable[[str, bool], object] | None = None,
-        robot: DiffDrive | None = None,
-        domain: Domain | None = None,
         planner: str = "astar",
         seed: int | None = 0,
+        **options: Unpack[BodyOptions],
     ) -> None:
-        loader = require_pyrobosim()
-        self.home, self.switch, self.planner, self.seed = home, switch, planner, seed
-        self.domain = domain or make_domain(home)
-        self.diffdrive = robot or DiffDrive()
-        self.layout = home.layout
-        spec = pyrobosim_world(home, robot=self.diffdrive, planner=planner)  # PlanningError: no layout
+        self._loader = require_pyrobosim()
+        self.planner, self.seed = planner, seed
+        self.planning_seconds = 0.0  # the wall time pyrobosim's path planner took, all runs
+        self.simulation: Simulation
+        super().__init__(home, world, **options)
+
+    def _prepare(self) -> None:
+        """The pyrobosim world made from the home's floor plan, its loggers quiet."""
+        self.layout = self.home.layout  # PlanningError just below when there is none
+        spec = pyrobosim_world(self.home, robot=self.diffdrive, planner=self.planner)
         self._rooms = _rooms(self.layout)  # type: ignore[arg-type]
         with tempfile.TemporaryDirectory(prefix="homecog-pyrobosim-") as folder, _quiet():
-            self.world = loader().from_file(spec.write(Path(folder) / "world.yaml")[0])
+            self.world = self._loader().from_file(spec.write(Path(folder) / "world.yaml")[0])
         for logger in (
             logging.getLogger("pyrobosim"),
             self.world.logger,
@@ -117,15 +110,13 @@ class PyRoboSimBody(Body):
         ):
             logger.setLevel(_QUIET)
         self.robot = self.world.robots[0]
-        self.planning_seconds = 0.0  # the wall time pyrobosim's path planner took, all runs
-        self.simulation: Simulation
-        self.start(world if world is not None else initial_state(home))
 
     # -- the run ------------------------------------------------------------------------------
-    def start(self, world: State) -> None:
+    def start(self, world: State | None = None) -> None:
         from pyrobosim.core.types import set_parent
         from pyrobosim.utils.pose import Pose
 
+        world = world if world is not None else initial_state(self.home)
         if self.seed is not None:
             np.random.seed(self.seed)
         x, y, yaw = place_pose(self.layout, self._rooms, world.robot, self.diffdrive.radius)  # type: ignore[arg-type]
@@ -165,7 +156,7 @@ class PyRoboSimBody(Body):
     def result(self) -> SimulationResult:
         return self.simulation.result()
 
-    # -- the actions ----------------------------------------------------------------------------
+    # -- the actions (pour and speak, with no physical part, are Body's own) ---------------------
     def move(self, origin: str, target: str) -> Outcome:
         def navigate() -> tuple[Outcome, np.ndarray | None]:
             if self._place() == target:
@@ -187,14 +178,8 @@ class PyRoboSimBody(Body):
     def pick(self, obj: str, place: str) -> Outcome:
         return self._act(("pick", obj, place), lambda: (_answer(self.robot.pick_object(obj)), None))
 
-    def pour(self, obj: str, place: str) -> Outcome:
-        return self._act(("pour", obj, place))
-
     def hand_over(self, obj: str, who: str) -> Outcome:
         return self._act(("hand_over", obj, who), lambda: (_answer(self.robot.place_object()), None))
-
-    def speak(self, text: str) -> Outcome:
-        return self._act(("speak", text))
 
     def switch_iot(self, device: str, setting: str) -> Outcome:
         return self._act(("switch_iot", device, setting), lambda: (self._switch(device, setting), None))
