@@ -17,6 +17,7 @@ import numpy as np
 
 from homecog.knowledge.box_index import distinct_rows, group_min_max
 from homecog.knowledge.model import bits
+from homecog.knowledge.update import SampleRow
 
 if TYPE_CHECKING:
     from homecog.knowledge.ihdr import IHDRTree
@@ -87,7 +88,8 @@ def _learn_rows(
     for i in range(len(order)):
         mask, full_codes, full_readings, sets = place(local_masks[i], row_codes[i], row_readings[i])
         extra = {dims[j]: (st[0][i], st[1][i], st[2][i]) for j, st in row_stats.items()}
-        tree._learn_row(target, mask, full_codes, full_readings, row_counts[i], row_sums[i], extra, sets)
+        row = SampleRow(mask, full_codes, full_readings, row_counts[i], row_sums[i], extra, sets)
+        tree._learn_row(target, row)
 
 
 def _reading_stats(

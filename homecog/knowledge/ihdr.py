@@ -65,7 +65,7 @@ from homecog.knowledge.model import (
 )
 from homecog.knowledge.search import TreeSearch
 from homecog.knowledge.state import NodeState, TreeState, signature
-from homecog.knowledge.update import ClusterUpdates
+from homecog.knowledge.update import ClusterUpdates, SampleRow
 
 MODES = ("multi", "paper")
 #: Largest table (discrete points × service nodes) for which multi mode keeps a dense
@@ -216,7 +216,7 @@ class IHDRTree(ClusterUpdates, TreeSearch):
         if not rows:
             rows = [(len(self.home.services), self._mask(relevant.get(IDLE)), 0)]
         for a, mask, pos in rows:
-            self._learn_row(a, mask, p.codes, p.readings, 1, float(pos), None)
+            self._learn_row(a, SampleRow(mask, p.codes, p.readings, 1, float(pos)))
         for i, a in enumerate(services):
             for b in services[i + 1 :]:
                 self._precedence[a, b] += 1

@@ -11,13 +11,29 @@ clusters; ``learn_one`` and ``learn_many`` there decide which rows to learn.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 from homecog.knowledge.model import Cluster, Condition, Node, Numeric, bits, box_size
 
 if TYPE_CHECKING:
     from homecog.home.codec import Space
     from homecog.knowledge.box_index import BoxIndex
+
+
+class SampleRow(NamedTuple):
+    """A sample row as a service node learns it: ``codes`` on the dimensions of ``mask`` (or, on
+    a dimension of ``sets``, multi mode, every value of its set), the ``readings``, how many
+    samples it stands for (``n``) and the sum of the service's positions in them (``pos_sum``);
+    ``stats``, per numeric dimension, the sum, least and greatest reading of those samples
+    (``None``: one sample, its ``readings``)."""
+
+    mask: int
+    codes: tuple[int, ...]
+    readings: tuple[float | None, ...]
+    n: int
+    pos_sum: float
+    stats: dict[int, tuple[float, float, float]] | None = None
+    sets: dict[int, frozenset[int]] | None = None
 
 
 class ClusterUpdates:
@@ -39,92 +55,56 @@ class ClusterUpdates:
     def _changed(self) -> None:
         raise NotImplementedError
 
-    def _learn_row(
-        self,
-        a: int,
-        mask: int,
-        codes: tuple[int, ...],
-        readings: tuple[float | None, ...],
-        n: int,
-        pos_sum: float,
-        stats: dict[int, tuple[float, float, float]] | None,
-        sets: dict[int, frozenset[int]] | None = None,
-    ) -> None:
-        """Learn a sample row: ``codes`` on the dimensions of ``mask``, or on a dimension of
-        ``sets`` (a class of contexts, multi mode) every value of its set."""
+    def _learn_row(self, a: int, row: SampleRow) -> None:
+        """Learn a sample row into service ``a``."""
         node = self._all_services()[a]
         self._shared_version += 1  # what users' layers take as prior may change
         for target in (node, node.parent):
             assert target is not None
-            target.count += n
-            target.position_sum += pos_sum
+            target.count += row.n
+            target.position_sum += row.pos_sum
         if self.mode == "paper":
             for target in (node, node.parent):
-                self._algorithm2(target, mask, codes, readings, n, stats)  # type: ignore[arg-type]
+                self._algorithm2(target, row)  # type: ignore[arg-type]
         else:
-            self._merge_box(node, mask, codes, n, pos_sum, sets or {})
+            self._merge_box(node, row)
 
-    def _algorithm2(
-        self,
-        node: Node,
-        mask: int,
-        codes: tuple[int, ...],
-        readings: tuple[float | None, ...],
-        n: int,
-        stats: dict[int, tuple[float, float, float]] | None,
-    ) -> None:
+    def _algorithm2(self, node: Node, row: SampleRow) -> None:
         """Algorithm 2, step 3: update the node's one cluster with a sample row."""
         dims = self._space.dims
         if not node.clusters:  # step 1: the first sample makes the cluster
             conditions: dict[int, Condition] = {}
             for j in range(len(dims)):
-                if mask >> j & 1:
-                    conditions[j] = (
-                        self._numeric(j, codes, readings, n, stats)
-                        if dims[j].numeric
-                        else frozenset([codes[j]])
-                    )
+                if row.mask >> j & 1:
+                    conditions[j] = self._numeric(j, row) if dims[j].numeric else frozenset([row.codes[j]])
             node.clusters.append(self._new_cluster(conditions))
         else:
             cluster = node.clusters[0]
             for j in list(cluster.conditions):
                 cond = cluster.conditions[j]
-                if not mask >> j & 1:  # step 3.3: unrelated in this sample: unrelated for good
+                if not row.mask >> j & 1:  # step 3.3: unrelated in this sample: unrelated for good
                     del cluster.conditions[j]
                 elif isinstance(cond, Numeric):  # step 3.4
-                    if stats is not None and j in stats:
-                        total, low, high = stats[j]
-                        cond.add(float(readings[j] or 0.0), n, total, low, high)
+                    if row.stats is not None and j in row.stats:
+                        total, low, high = row.stats[j]
+                        cond.add(float(row.readings[j] or 0.0), row.n, total, low, high)
                     else:
-                        cond.add(float(readings[j]))  # type: ignore[arg-type]
+                        cond.add(float(row.readings[j]))  # type: ignore[arg-type]
                 else:  # step 3.5
-                    cluster.conditions[j] = cond | {codes[j]}
-        node.clusters[0].count += n
+                    cluster.conditions[j] = cond | {row.codes[j]}
+        node.clusters[0].count += row.n
 
     @staticmethod
-    def _numeric(
-        j: int,
-        codes: tuple[int, ...],
-        readings: tuple[float | None, ...],
-        n: int,
-        stats: dict[int, tuple[float, float, float]] | None,
-    ) -> Numeric:
-        if stats is not None and j in stats:
-            total, low, high = stats[j]
-            return Numeric(count=n, total=float(total), low=float(low), high=float(high))
-        x = float(readings[j])  # type: ignore[arg-type]
+    def _numeric(j: int, row: SampleRow) -> Numeric:
+        if row.stats is not None and j in row.stats:
+            total, low, high = row.stats[j]
+            return Numeric(count=row.n, total=float(total), low=float(low), high=float(high))
+        x = float(row.readings[j])  # type: ignore[arg-type]
         return Numeric(count=1, total=x, low=x, high=x)
 
-    def _merge_box(
-        self,
-        node: Node,
-        mask: int,
-        codes: tuple[int, ...],
-        n: int,
-        pos_sum: float,
-        sets: dict[int, frozenset[int]],
-    ) -> None:
+    def _merge_box(self, node: Node, row: SampleRow) -> None:
         """Multi mode: join a covering box, merge with a box one dimension away, or start one."""
+        mask, codes, n, pos_sum, sets = row.mask, row.codes, row.n, row.pos_sum, row.sets or {}
         index = self._index[node.id]
         dims = bits(mask)
         values = [sets.get(j) or frozenset([codes[j]]) for j in dims]
