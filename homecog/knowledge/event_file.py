@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -53,16 +53,7 @@ class EventsLearned:
     seconds: float = 0.0
 
     def as_dict(self) -> dict[str, Any]:
-        return {
-            "events": self.events,
-            "added": self.added,
-            "rejected": self.rejected,
-            "changed": self.changed,
-            "users": self.users,
-            "batches": self.batches,
-            "experiences": self.experiences,
-            "seconds": round(self.seconds, 3),
-        }
+        return {**asdict(self), "seconds": round(self.seconds, 3)}
 
 
 def read_corrections(path: Path, home: Home, user: str) -> list[EventCorrection]:

@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterator, Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 from typing import Any
 
 from homecog.home.codec import Point
@@ -143,15 +143,7 @@ class Explanation:
     evidence: dict[str, Any] | None = None  # a user's answer: which corrections, how many agreed
 
     def as_dict(self) -> dict[str, Any]:
-        return {
-            "service": self.service,
-            "category": self.category,
-            "priority": self.priority,
-            "cluster": self.cluster,
-            "user": self.user,
-            "conditions": self.conditions,
-            "evidence": self.evidence,
-        }
+        return asdict(self)
 
 
 @dataclass

@@ -34,6 +34,11 @@ class NodeState:
     position_sum: float
 
 
+COUNTERS = ("precedence", "next_id", "seq", "n_experiences")
+"""The fields of a :class:`TreeState` that :meth:`TreeState.counters` gives, stored as one JSON
+object."""
+
+
 @dataclass
 class TreeState:
     """Everything a tree is: its mode, nodes, shared clusters (by node id, in order), every user's
@@ -50,12 +55,7 @@ class TreeState:
 
     def counters(self) -> dict[str, Any]:
         """The precedence and counters as one JSON-ready mapping."""
-        return {
-            "precedence": self.precedence,
-            "next_id": self.next_id,
-            "seq": self.seq,
-            "n_experiences": self.n_experiences,
-        }
+        return {name: getattr(self, name) for name in COUNTERS}
 
 
 def _condition(c: Condition) -> Any:

@@ -58,7 +58,7 @@ from homecog.knowledge.rows import (
 from homecog.knowledge.sample_log import SampleLog
 from homecog.knowledge.samples import SampleSet
 from homecog.knowledge.schema import ClusterRow, ExperienceRow, HomeRow, NodeRow, UserRow
-from homecog.knowledge.state import NodeState, TreeState
+from homecog.knowledge.state import COUNTERS, NodeState, TreeState
 from homecog.knowledge.statements import (
     BUMP_HOME,
     BUMP_USER,
@@ -196,10 +196,7 @@ class Store(StoreLog):
                     for r in conn.execute(select(NodeRow).where(NodeRow.home == h).order_by(NodeRow.id))
                 ],
                 shared=[],
-                precedence=counters.get("precedence", []),
-                next_id=counters.get("next_id", 0),
-                seq=counters.get("seq", 0),
-                n_experiences=counters.get("n_experiences", 0),
+                **{name: value for name, value in counters.items() if name in COUNTERS},
             )
             for row in conn.execute(
                 select(ClusterRow)
