@@ -49,18 +49,13 @@ import logging
 import threading
 import time
 from collections.abc import Callable, Mapping
+from dataclasses import dataclass
 from datetime import UTC, datetime
 from typing import Any
 
 import paho.mqtt.client as mqtt
 
-from homecog.context.mqtt_broker import (
-    CONNECT_TIMEOUT,
-    DEFAULT_PREFIX,
-    BrokerClient,
-    command_topic,
-    state_topic,
-)
+from homecog.context.mqtt_broker import DEFAULT_PREFIX, BrokerClient, command_topic, state_topic
 from homecog.home.model import Home
 
 log = logging.getLogger(__name__)
@@ -164,10 +159,13 @@ def services_state(services: list[str]) -> str:
     return text if len(text) <= STATE_LIMIT else text[: STATE_LIMIT - 1] + "…"
 
 
+@dataclass(eq=False, repr=False, kw_only=True)
 class HomeAssistantDiscovery(BrokerClient):
     """homecog on a broker for Home Assistant: the discovery configs, the robot's state, and the
     undo button's presses handed to ``on_undo`` (on a worker thread of its own; what it returns,
-    the action after the undo, becomes the last action's state). Once connected it publishes every
+    the action after the undo, becomes the last action's state); the discovery configs go under
+    ``discovery_prefix``, and the other parameters are
+    :class:`~homecog.context.mqtt_broker.BrokerClient`'s. Once connected it publishes every
     config and ``online`` (again after every reconnection); ``start(wait=False)`` connects in the
     background, as long as it takes: the robot does not wait for an app.
 
@@ -178,25 +176,17 @@ class HomeAssistantDiscovery(BrokerClient):
         discovery.stop()        # the configs removed: the entities leave Home Assistant
     """
 
-    def __init__(
-        self,
-        home: Home,
-        url: str,
-        *,
-        on_undo: Callable[[], Mapping[str, Any] | None] | None = None,
-        prefix: str = DEFAULT_PREFIX,
-        discovery_prefix: str = DISCOVERY_PREFIX,
-        client_id: str | None = None,
-        connect_timeout: float = CONNECT_TIMEOUT,
-    ) -> None:
-        super().__init__(home, url, prefix=prefix, client_id=client_id, connect_timeout=connect_timeout)
-        self.on_undo = on_undo
-        self.discovery_prefix = discovery_prefix
-        self.configs = discovery_configs(home, prefix=prefix, discovery_prefix=discovery_prefix)
+    on_undo: Callable[[], Mapping[str, Any] | None] | None = None
+    discovery_prefix: str = DISCOVERY_PREFIX
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        home, prefix = self.home, self.prefix
+        self.configs = discovery_configs(home, prefix=prefix, discovery_prefix=self.discovery_prefix)
         self.presses = 0
         self._availability = robot_topic(home, "availability", prefix=prefix)
         self._undo_topic = robot_topic(home, "undo", prefix=prefix)
-        self._status_topic = f"{discovery_prefix}/status"  # Home Assistant's birth and last will
+        self._status_topic = f"{self.discovery_prefix}/status"  # Home Assistant's birth and last will
         self._states: dict[str, str] = {}  # the robot's state topics, as last published
         self._lock = threading.Lock()
         self._worker = concurrent.futures.ThreadPoolExecutor(1, thread_name_prefix="homecog-undo")

@@ -36,7 +36,7 @@ import logging
 import ssl
 import threading
 import uuid
-from dataclasses import dataclass
+from dataclasses import KW_ONLY, dataclass
 from typing import Any, Self
 from urllib.parse import unquote, urlsplit
 
@@ -142,20 +142,35 @@ def connect(client: mqtt.Client, address: BrokerAddress, connected: threading.Ev
         raise MqttError(f"MQTT broker {where} did not accept the connection within {timeout:g} s")
 
 
+@dataclass(eq=False, repr=False)  # no repr: the URL may hold a password
 class BrokerClient:
     """What each of homecog's clients of a broker holds (the source, the publisher, the Home
     Assistant discovery): the home, the broker's URL and address, the topic prefix, the paho
-    client once started, and whether it is connected."""
+    client once started, and whether it is connected.
 
-    def __init__(
-        self, home: Home, url: str, *, prefix: str, client_id: str | None, connect_timeout: float
-    ) -> None:
-        self.home = home
-        self.url = url
-        self.prefix = prefix
-        self.client_id = client_id
-        self.connect_timeout = connect_timeout
-        self.address = parse_url(url)  # a bad URL fails here, before anything starts
+    Parameters
+    ----------
+    home
+        The home whose features and devices the topics carry.
+    url
+        The broker, ``mqtt://[user:password@]host[:port]`` (``mqtts://`` for TLS).
+    prefix
+        The first level of every topic.
+    client_id
+        The MQTT client id; a random one by default.
+    connect_timeout
+        Seconds :meth:`start` waits for the broker.
+    """
+
+    home: Home
+    url: str
+    _: KW_ONLY
+    prefix: str = DEFAULT_PREFIX
+    client_id: str | None = None
+    connect_timeout: float = CONNECT_TIMEOUT
+
+    def __post_init__(self) -> None:
+        self.address = parse_url(self.url)  # a bad URL fails here, before anything starts
         self._connected = threading.Event()
         self._client: mqtt.Client | None = None
 

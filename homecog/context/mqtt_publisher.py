@@ -9,6 +9,7 @@ import logging
 import threading
 import time
 from collections.abc import Callable, Mapping
+from dataclasses import dataclass
 from typing import Any
 
 import paho.mqtt.client as mqtt
@@ -28,9 +29,11 @@ from homecog.home.states import parse_state
 log = logging.getLogger(__name__)
 
 
+@dataclass(eq=False, repr=False, kw_only=True)
 class MqttPublisher(BrokerClient):
     """Publishes a home's context to a broker (retained state topics), as a real home would;
-    the simulated home uses it. Commands the robot publishes are handed to ``on_command``.
+    the simulated home uses it. Commands the robot publishes are handed to ``on_command``; the
+    other parameters are :class:`~homecog.context.mqtt_broker.BrokerClient`'s.
 
     Against a broker (not run as a doctest)::
 
@@ -40,18 +43,10 @@ class MqttPublisher(BrokerClient):
         pub.stop()
     """
 
-    def __init__(
-        self,
-        home: Home,
-        url: str,
-        *,
-        prefix: str = DEFAULT_PREFIX,
-        client_id: str | None = None,
-        on_command: Callable[[str, bool], None] | None = None,
-        connect_timeout: float = CONNECT_TIMEOUT,
-    ) -> None:
-        super().__init__(home, url, prefix=prefix, client_id=client_id, connect_timeout=connect_timeout)
-        self.on_command = on_command
+    on_command: Callable[[str, bool], None] | None = None
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
         self._published: dict[str, str] = {}
         self._pending: list[mqtt.MQTTMessageInfo] = []
         self._lock = threading.Lock()  # publish is called from the simulation and paho threads

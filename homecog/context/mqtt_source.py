@@ -23,64 +23,44 @@ import json
 import logging
 import threading
 from collections.abc import Callable, Mapping
+from dataclasses import dataclass
 from typing import Any
 
 import paho.mqtt.client as mqtt
 
 from homecog.context import ConnectedSource, DeviceChange
-from homecog.context.mqtt_broker import (
-    CONNECT_TIMEOUT,
-    DEFAULT_PREFIX,
-    BrokerClient,
-    command_topic,
-)
+from homecog.context.mqtt_broker import BrokerClient, command_topic
 from homecog.errors import ContextError
 from homecog.home.codec import normalize
-from homecog.home.model import Home
 from homecog.home.states import state_word
 
 log = logging.getLogger(__name__)
 
 
+@dataclass(eq=False, repr=False, kw_only=True)
 class MqttSource(BrokerClient, ConnectedSource):
     """The context of a home, followed on an MQTT broker; a :class:`ContextSource`.
 
     Parameters
     ----------
-    home
-        The home whose features and devices the state topics carry.
-    url
-        The broker, ``mqtt://[user:password@]host[:port]`` (``mqtts://`` for TLS).
-    prefix
-        The first level of every topic.
-    client_id
-        The MQTT client id; a random one by default.
+    home, url, prefix, client_id, connect_timeout
+        :class:`~homecog.context.mqtt_broker.BrokerClient`'s.
     on_change
         Called (on the network thread) with the new snapshot whenever a value changes once
         every feature and device has been received. Its errors are logged, never raised.
-    connect_timeout
-        Seconds :meth:`start` waits for the broker.
     """
 
-    def __init__(
-        self,
-        home: Home,
-        url: str,
-        *,
-        prefix: str = DEFAULT_PREFIX,
-        client_id: str | None = None,
-        on_change: Callable[[dict[str, str]], None] | None = None,
-        connect_timeout: float = CONNECT_TIMEOUT,
-    ) -> None:
-        super().__init__(home, url, prefix=prefix, client_id=client_id, connect_timeout=connect_timeout)
-        self.on_change = on_change
+    on_change: Callable[[dict[str, str]], None] | None = None
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
         self.rejected = 0
-        self._names = home.feature_names + home.device_names
-        self._devices = set(home.device_names)
+        self._names = self.home.feature_names + self.home.device_names
+        self._devices = set(self.home.device_names)
         self._values: dict[str, str] = {}
         self._lock = threading.Lock()
         self._changed = threading.Condition(self._lock)
-        self._base = f"{prefix}/{home.name}"
+        self._base = f"{self.prefix}/{self.home.name}"
 
     # -- lifecycle -------------------------------------------------------------------
     def stop(self) -> None:
