@@ -29,6 +29,7 @@ test can step through a day deterministically.
 from __future__ import annotations
 
 from collections.abc import Mapping
+from dataclasses import KW_ONLY, dataclass
 from datetime import datetime, timedelta
 
 import numpy as np
@@ -59,6 +60,7 @@ def parse_start(start: datetime | str) -> datetime:
         ) from None
 
 
+@dataclass(eq=False)
 class SimulatedHome(ChangeNotifier):
     """A home whose user lives the routine under typical-year weather.
 
@@ -79,23 +81,17 @@ class SimulatedHome(ChangeNotifier):
 
     ready = True
 
-    def __init__(
-        self,
-        home: Home,
-        *,
-        speed: float = 60.0,
-        start: datetime | str = DEFAULT_START,
-        seed: int = 0,
-        routine_switches: bool = True,
-    ) -> None:
-        self.home = home
-        self.speed = speed
-        self.start = start
-        self.seed = seed
-        self.routine_switches = routine_switches
-        routine = home.routine
+    home: Home
+    _: KW_ONLY
+    speed: float = 60.0
+    start: datetime | str = DEFAULT_START
+    seed: int = 0
+    routine_switches: bool = True
+
+    def __post_init__(self) -> None:
+        home, routine = self.home, self.home.routine
         self._routine: Routine = routine if isinstance(routine, Routine) else default_routine(home.features)
-        self._now = parse_start(start)
+        self._now = parse_start(self.start)
         self._weather = Weather()
         self._overrides: dict[str, str] = {}
         self._states = dict.fromkeys(home.device_names, False)
