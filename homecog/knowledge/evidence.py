@@ -42,6 +42,7 @@ from __future__ import annotations
 import bisect
 import math
 from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
 
 from homecog.knowledge.cuts import best_cut, loo_loss
 from homecog.knowledge.keys import Atom, Decision, Key, Recent, cell_of, keys_of, sign_of
@@ -62,6 +63,7 @@ def kt_share(counts: Sequence[int] | None) -> float:
     return (counts[0] + 0.5) / (counts[0] + counts[1] + 1)
 
 
+@dataclass(eq=False)
 class ServiceLearner:
     """One user's evidence about one service.
 
@@ -77,27 +79,24 @@ class ServiceLearner:
         The atoms that the shared knowledge says matter to the service: between keys that
         answer the evidence equally well, the one with more of them and fewer others wins
         (what a single correction generalizes over).
+    n_recent
+        How many of the atoms, just before the shared answer, are the recent past's; their keys
+        join at the first example that knows it.
     """
 
-    def __init__(
-        self,
-        n_atoms: int,
-        numeric: dict[int, tuple[float, ...]],
-        order: int = 2,
-        prior: frozenset[int] = frozenset(),
-        n_recent: int = 0,
-    ) -> None:
-        self.n_atoms = n_atoms
-        self.numeric = numeric
-        self.order = order
-        self.prior = prior
-        self.n_recent = n_recent
-        self._unknown = ("unknown",) * n_recent
+    n_atoms: int
+    numeric: dict[int, tuple[float, ...]]
+    order: int = 2
+    prior: frozenset[int] = frozenset()
+    n_recent: int = 0
+
+    def __post_init__(self) -> None:
+        self._unknown = ("unknown",) * self.n_recent
         # the recent past's keys join at the first example that knows it (until then every
         # such key would only repeat its sub-keys' counts)
-        self.keys = keys_of(n_atoms, order, recent=False, n_recent=n_recent)
+        self.keys = keys_of(self.n_atoms, self.order, recent=False, n_recent=self.n_recent)
         self._recent_on = False
-        self.cuts: dict[int, tuple[float, ...]] = dict(numeric)
+        self.cuts: dict[int, tuple[float, ...]] = dict(self.numeric)
         # per example: readings, codes, wanted, the shared answer, the caller's id, recent atoms
         self._examples: list[tuple[Sequence[float | None], Sequence[int], bool, bool, int, Recent]] = []
         self._atoms: list[tuple[Atom, ...]] = []
