@@ -34,7 +34,7 @@ from homecog.home.home_file import read_yaml, resolve_home
 from homecog.home.household import parse_household
 from homecog.home.layout import Layout, parse_layout
 from homecog.home.log_section import parse_log
-from homecog.home.model import Device, Feature, Home, Rewards, Service, format_number
+from homecog.home.model import Device, Feature, Home, Rewards, RewardWeights, Service, format_number
 from homecog.home.routine import parse_routine
 from homecog.home.rule_sections import RuleSections
 from homecog.home.shapes import parse_device_state
@@ -188,7 +188,7 @@ class HomeValidator(ContextSection, RuleSections):
         self.keys(weights, "rewards.weights", ("terminal", "progress", "prohibited"))
         default = Rewards()
         values = {
-            k: self.number(weights.get(k, getattr(default, k)), f"rewards.weights.{k}")
+            k: self.number(weights.get(k, getattr(default.weights, k)), f"rewards.weights.{k}")
             for k in ("terminal", "progress", "prohibited")
         }
         magnitude = self.number(section.get("magnitude", default.magnitude), "rewards.magnitude")
@@ -196,7 +196,7 @@ class HomeValidator(ContextSection, RuleSections):
             raise self.fail(
                 "rewards.magnitude", f"expected a positive number, got {format_number(magnitude)}"
             )
-        return Rewards(magnitude=magnitude, **values)
+        return Rewards(RewardWeights(**values), magnitude)
 
 
 def load_home(name_or_path: str | Path) -> Home:
