@@ -20,6 +20,7 @@ __all__ = [
     "DbOption",
     "HomeOption",
     "JsonOption",
+    "MethodsOption",
     "OptionalContextOption",
     "TokenOption",
     "UserOption",
@@ -127,6 +128,7 @@ def status(message: str) -> None:
 
 #: Every method of ``eval`` and ``replay``, the default.
 ALL_METHODS = ",".join(METHOD_NAMES)
+MethodsOption = Annotated[str, typer.Option(help="Methods, comma-separated.")]
 
 
 def check_conversion(folder: Path, out: Path) -> None:
