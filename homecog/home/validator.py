@@ -59,7 +59,7 @@ _SECTIONS = (
 _REQUIRED = ("name", "context", "devices", "services", "comfort")
 
 
-class HomeValidator(ContextSection, RuleSections):
+class HomeValidator(ContextSection):
     """Walks the parsed YAML, building the model and failing with key paths."""
 
     def home(self, data: object) -> Home:
@@ -86,14 +86,15 @@ class HomeValidator(ContextSection, RuleSections):
                 f"devices.{sorted(clash)[0]}", "a device may not share a name with a context feature"
             )
         services = self.services(data["services"], devices)
+        rules = RuleSections(self.source, features, devices)
         home = Home(
             name=name,
             features=features,
             devices=devices,
             services=services,
-            comfort=self.comfort(data["comfort"], features, devices),
-            needs=self.service_rules(data.get("needs"), "needs", features, devices, services),
-            prohibited=self.service_rules(data.get("prohibited"), "prohibited", features, devices, services),
+            comfort=rules.comfort(data["comfort"]),
+            needs=rules.service_rules(data.get("needs"), "needs", services),
+            prohibited=rules.service_rules(data.get("prohibited"), "prohibited", services),
             rewards=self.rewards(data.get("rewards")),
             layout=self.layout(data.get("layout"), features, devices, services),
             routine=parse_routine(data.get("routine"), features, devices, self.fail),
