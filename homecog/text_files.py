@@ -35,6 +35,7 @@ import os
 import stat
 from collections.abc import Iterator
 from contextlib import contextmanager
+from datetime import datetime
 from pathlib import Path
 
 KIB = 1024
@@ -172,3 +173,12 @@ def _line(text: str, path: Path, line: int, what: str, error: type[Exception]) -
     if "\0" in text:
         raise error(f"{path}: line {line}: a NUL byte; {what} is text")
     return text
+
+
+def timestamp_cell(text: str, path: Path, line: int, error: type[Exception]) -> datetime:
+    """The timestamp column of a line of a file of rows, an ISO 8601 time; ``error`` naming the
+    path, the line and the text as given otherwise."""
+    try:
+        return datetime.fromisoformat(text.strip())
+    except ValueError:
+        raise error(f"{path}: line {line}, column timestamp: {text!r} is not an ISO 8601 time") from None

@@ -27,12 +27,12 @@ def reference_step(
     before, after = dist(states, pending), dist(tuple(new_states), new_pending)
     switched = [d for d, (a, b) in enumerate(zip(states, new_states, strict=True)) if a != b]
     progress = after < before and all(wanted[d] is not None and states[d] != wanted[d] for d in switched)
-    r = home.rewards
-    reward = r.progress * (r.magnitude if progress else -r.magnitude)
+    w, m = home.rewards.weights, home.rewards.magnitude
+    reward = w.progress * (m if progress else -m)
     if after == 0 and (progress or before == 0):
-        reward += r.terminal * r.magnitude
+        reward += w.terminal * m
     if home.is_prohibited(home.service_index(service), codes, states):
-        reward -= r.prohibited * r.magnitude
+        reward -= w.prohibited * m
     return tuple(new_states), new_pending, reward, after == 0
 
 

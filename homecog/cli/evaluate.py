@@ -13,6 +13,7 @@ from homecog.cli.options import (
     DbOption,
     HomeOption,
     JsonOption,
+    MethodsOption,
     check_conversion,
     check_readable,
     check_writable,
@@ -29,6 +30,22 @@ if TYPE_CHECKING:
 
 
 # -- homecog eval -------------------------------------------------------------------------------
+#: ``eval --days``: the closed loop, the robot living with a simulated household.
+DaysOption = Annotated[
+    int | None,
+    typer.Option(
+        min=1,
+        max=365,
+        help="Instead: the robot and a household of the truth home's wishes live this many "
+        "simulated days; the household corrects it only by switching.",
+    ),
+]
+StartOption = Annotated[
+    str | None,
+    typer.Option(help="With --days: the simulated date and time to start at (default 2021-06-21 06:00)."),
+]
+
+
 def eval_command(
     home: HomeOption = "paper",
     truth: Annotated[
@@ -42,7 +59,7 @@ def eval_command(
         typer.Option(min=0, help="Corrections by a simulated user (the truth home), with a learning curve."),
     ] = 0,
     seed: Annotated[int, typer.Option(min=0, help="Seed of the scenarios and samples.")] = 0,
-    methods: Annotated[str, typer.Option(help="Methods, comma-separated.")] = ALL_METHODS,
+    methods: MethodsOption = ALL_METHODS,
     report: Annotated[
         Path | None, typer.Option(help="Write a Markdown report with charts into this folder.")
     ] = None,
@@ -50,19 +67,8 @@ def eval_command(
     joint: Annotated[
         bool, typer.Option("--joint", help="Learn from the paper's joint Q table (small homes only).")
     ] = False,
-    days: Annotated[
-        int | None,
-        typer.Option(
-            min=1,
-            max=365,
-            help="Instead: the robot and a household of the truth home's wishes live this many "
-            "simulated days; the household corrects it only by switching.",
-        ),
-    ] = None,
-    start: Annotated[
-        str | None,
-        typer.Option(help="With --days: the simulated date and time to start at (default 2021-06-21 06:00)."),
-    ] = None,
+    days: DaysOption = None,
+    start: StartOption = None,
     json: JsonOption = False,
 ) -> None:
     """Precision, recall and F1 of every method on scenarios; with --corrections, how the robot
@@ -195,7 +201,7 @@ def replay(
         ),
     ],
     home: HomeOption = "paper",
-    methods: Annotated[str, typer.Option(help="Methods, comma-separated.")] = ALL_METHODS,
+    methods: MethodsOption = ALL_METHODS,
     seed: Annotated[int, typer.Option(min=0, help="Seed of the samples the methods start from.")] = 0,
     report: Annotated[
         Path | None, typer.Option(help="Write a Markdown report with the running figures into this folder.")

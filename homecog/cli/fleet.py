@@ -9,7 +9,7 @@ from typing import Annotated
 import typer
 
 from homecog.cli.options import HostOption, JsonOption, PortOption, TokenOption, server_settings, url_host
-from homecog.cli.output import emit_json, stderr, stdout
+from homecog.cli.output import emit_json, stderr_progress, stdout
 from homecog.errors import UsageProblemError
 
 FleetDb = Annotated[
@@ -40,7 +40,7 @@ def fleet_train(
 ) -> int:
     """Learn every home file of FOLDER into one database: training, samples and tree, as tasks
     on Ray; a home already learned for the same content is skipped, one that fails is reported."""
-    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+    from rich.progress import TimeElapsedColumn
 
     from homecog.fleet.train import HomeResult, fleet_train, home_files
     from homecog.knowledge.database import redact
@@ -55,14 +55,7 @@ def fleet_train(
         else f"on Ray ({ray or f'local, {workers} CPUs'})"
     )
     serial = serial or (workers == 1 and ray is None)
-    with Progress(
-        TextColumn("{task.description}"),
-        BarColumn(),
-        MofNCompleteColumn(),
-        TimeElapsedColumn(),
-        console=stderr,
-        disable=json_out or not stderr.is_terminal,
-    ) as progress:
+    with stderr_progress(TimeElapsedColumn(), quiet=json_out) as progress:
         task = progress.add_task(f"learning {total} homes {how}", total=total)
 
         def report(r: HomeResult) -> None:

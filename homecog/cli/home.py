@@ -61,10 +61,10 @@ def home_show(home: HomeOption = "paper", json: JsonOption = False) -> None:
 
     for table in home_tables(h):
         stdout.print(table)
-    r = h.rewards
+    w, magnitude = h.rewards.weights, h.rewards.magnitude
     stdout.print(
-        f"Rewards: {format_number(r.terminal)}·terminal + {format_number(r.progress)}·progress "
-        f"+ {format_number(r.prohibited)}·prohibited, each ±{format_number(r.magnitude)}"
+        f"Rewards: {format_number(w.terminal)}·terminal + {format_number(w.progress)}·progress "
+        f"+ {format_number(w.prohibited)}·prohibited, each ±{format_number(magnitude)}"
     )
 
 

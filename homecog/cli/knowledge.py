@@ -15,6 +15,7 @@ from homecog.cli.options import (
     DbOption,
     HomeOption,
     JsonOption,
+    OptionalContextOption,
     UserOption,
     check_readable,
     status,
@@ -22,6 +23,18 @@ from homecog.cli.options import (
 from homecog.cli.output import emit_json, stdout
 from homecog.errors import UsageProblemError
 from homecog.home import Home, load_home
+
+#: What ``correct`` is told the user wants: the whole set, or services to add or reject.
+WantOption = Annotated[
+    str | None, typer.Option(help="The services the user wants, comma-separated (empty: none).")
+]
+AddOption = Annotated[
+    str | None,
+    typer.Option(help="Instead: services the user wants too, comma-separated; the rest keep theirs."),
+]
+RejectOption = Annotated[
+    str | None, typer.Option(help="Instead: services the user does not want, comma-separated.")
+]
 
 
 @contextmanager
@@ -72,24 +85,10 @@ def cognize(
 
 
 def correct(
-    context: Annotated[
-        str | None,
-        typer.Option("--context", help="name=value for every feature and device, comma-separated."),
-    ] = None,
-    want: Annotated[
-        str | None,
-        typer.Option("--want", help="The services the user wants, comma-separated (empty: none)."),
-    ] = None,
-    add: Annotated[
-        str | None,
-        typer.Option(
-            "--add", help="Instead: services the user wants too, comma-separated; the rest keep theirs."
-        ),
-    ] = None,
-    reject: Annotated[
-        str | None,
-        typer.Option("--reject", help="Instead: services the user does not want, comma-separated."),
-    ] = None,
+    context: OptionalContextOption = None,
+    want: WantOption = None,
+    add: AddOption = None,
+    reject: RejectOption = None,
     events: Annotated[
         Path | None,
         typer.Option(

@@ -20,6 +20,8 @@ __all__ = [
     "DbOption",
     "HomeOption",
     "JsonOption",
+    "MethodsOption",
+    "OptionalContextOption",
     "TokenOption",
     "UserOption",
     "check_conversion",
@@ -37,9 +39,10 @@ DbOption = Annotated[
         "--db", help="Database URL (default: $HOMECOG_DB or a SQLite file under the data directory)."
     ),
 ]
-ContextOption = Annotated[
-    str, typer.Option("--context", help="name=value for every feature and device, comma-separated.")
-]
+_CONTEXT_HELP = "name=value for every feature and device, comma-separated."
+ContextOption = Annotated[str, typer.Option("--context", help=_CONTEXT_HELP)]
+#: ``--context`` where a command can do without one.
+OptionalContextOption = Annotated[str | None, typer.Option("--context", help=_CONTEXT_HELP)]
 
 
 def _user(value: str) -> str:
@@ -125,6 +128,7 @@ def status(message: str) -> None:
 
 #: Every method of ``eval`` and ``replay``, the default.
 ALL_METHODS = ",".join(METHOD_NAMES)
+MethodsOption = Annotated[str, typer.Option(help="Methods, comma-separated.")]
 
 
 def check_conversion(folder: Path, out: Path) -> None:

@@ -9,7 +9,14 @@ from contextlib import contextmanager
 from typing import Any
 
 from rich.console import Console
-from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
+from rich.progress import (
+    BarColumn,
+    MofNCompleteColumn,
+    Progress,
+    ProgressColumn,
+    TextColumn,
+    TimeRemainingColumn,
+)
 
 stdout = Console(highlight=False, soft_wrap=True)
 stderr = Console(stderr=True, highlight=False)
@@ -38,18 +45,24 @@ def emit(data: dict[str, Any], json: bool, *lines: str) -> None:
         stdout.print(line)
 
 
-@contextmanager
-def progress_bar(description: str, total: int) -> Iterator[Any]:
-    """A progress bar on stderr; yields ``update(done, total)``. Silent when stderr is no terminal."""
-    with Progress(
+def stderr_progress(time_column: ProgressColumn, *, transient: bool = False, quiet: bool = False) -> Progress:
+    """Progress on stderr: what is done, a bar, how many of how many, then ``time_column``
+    (the time elapsed or the time remaining). Silent with ``quiet`` or when stderr is no terminal."""
+    return Progress(
         TextColumn("{task.description}"),
         BarColumn(),
         MofNCompleteColumn(),
-        TimeRemainingColumn(),
+        time_column,
         console=stderr,
-        transient=True,
-        disable=not stderr.is_terminal,
-    ) as progress:
+        transient=transient,
+        disable=quiet or not stderr.is_terminal,
+    )
+
+
+@contextmanager
+def progress_bar(description: str, total: int) -> Iterator[Any]:
+    """A progress bar on stderr; yields ``update(done, total)``. Silent when stderr is no terminal."""
+    with stderr_progress(TimeRemainingColumn(), transient=True) as progress:
         task = progress.add_task(description, total=total)
 
         def update(done: int, total: int) -> None:

@@ -68,7 +68,6 @@ def build_tables(home: Home) -> Tables:
     prohibited_ctx, rule_start, rule_ctx, rule_mask, rule_val = _prohibitions(home, codes)
     per_context = (np.int64(1) << len(home.devices)) << need_count
     offsets = np.concatenate([[0], np.cumsum(per_context)]).astype(np.int64)
-    r = home.rewards
     return Tables(
         n_devices=len(home.devices),
         need_count=need_count,
@@ -83,7 +82,7 @@ def build_tables(home: Home) -> Tables:
         rule_ctx=rule_ctx,
         rule_mask=rule_mask,
         rule_val=rule_val,
-        weights=np.array([r.terminal, r.progress, r.prohibited, r.magnitude], dtype=np.float64),
+        weights=np.array(home.rewards.as_list(), dtype=np.float64),
     )
 
 

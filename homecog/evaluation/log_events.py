@@ -53,7 +53,7 @@ from homecog.home.home_assistant import FeatureEntity
 from homecog.home.home_assistant import feature_value as entity_value
 from homecog.home.log_section import LogDevice, LogFeature, LogMap
 from homecog.home.model import Feature, Home
-from homecog.text_files import ROWS_FILE_LIMIT, read_text
+from homecog.text_files import ROWS_FILE_LIMIT, read_text, timestamp_cell
 
 COLUMNS = ("timestamp", "entity", "state")
 REASONS = (
@@ -200,7 +200,7 @@ def _row(path: Path, line: int, cells: list[str], where: dict[str, int], width: 
     """One line of a log (``width`` fields) as a row."""
     if len(cells) != width:
         raise LogFileError(f"{path}: line {line}: expected {width} fields, got {len(cells)}")
-    at = _timestamp(path, line, cells[where["timestamp"]])
+    at = timestamp_cell(cells[where["timestamp"]].strip(), path, line, LogFileError)
     user = (cells[where["user"]].strip() or None) if "user" in where else None
     return LogRow(at, cells[where["entity"]].strip(), cells[where["state"]].strip(), user)
 
@@ -214,15 +214,6 @@ def _check_zone(path: Path, line: int, at: datetime, zoned: tuple[bool, int]) ->
 
 def _text(path: Path) -> str:
     return read_text(path, limit=ROWS_FILE_LIMIT, what="a log file", error=LogFileError)
-
-
-def _timestamp(path: Path, line: int, text: str) -> datetime:
-    try:
-        return datetime.fromisoformat(text.strip())
-    except ValueError:
-        raise LogFileError(
-            f"{path}: line {line}, column timestamp: {text.strip()!r} is not an ISO 8601 time"
-        ) from None
 
 
 # -- how states read -------------------------------------------------------------------------------

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from homecog.home.content import content_hash, is_compatible
 from homecog.home.home_file import builtin_homes
-from homecog.home.model import ComfortRule, Condition, Device, Feature, Home, Rewards, Service
+from homecog.home.model import ComfortRule, Condition, Device, Feature, Home, Rewards, RewardWeights, Service
 from homecog.home.validator import load_home, load_home_text
 
 __all__ = [
@@ -13,6 +13,7 @@ __all__ = [
     "Device",
     "Feature",
     "Home",
+    "RewardWeights",
     "Rewards",
     "Service",
     "builtin_homes",

@@ -39,12 +39,7 @@ def canonical(home: Home) -> dict[str, Any]:
         "comfort": [[[_condition_json(home, r.when), r.want] for r in rules] for rules in home.comfort],
         "needs": [[_condition_json(home, c) for c in rules] for rules in home.needs],
         "prohibited": [[_condition_json(home, c) for c in rules] for rules in home.prohibited],
-        "rewards": [
-            home.rewards.terminal,
-            home.rewards.progress,
-            home.rewards.prohibited,
-            home.rewards.magnitude,
-        ],
+        "rewards": home.rewards.as_list(),
     }
 
 

@@ -213,8 +213,9 @@ def unknown_entities(mapping: HomeAssistantMap, known: Iterable[str]) -> list[st
 def parse_home_assistant(
     section: object, features: Sequence[Feature], devices: Sequence[Device], fail: Fail
 ) -> HomeAssistantMap | None:
-    """The validated section (``None`` where the home has none); errors through ``fail(key path,
-    message)`` as the loader words them."""
+    """The validated ``home_assistant`` section (``None`` where the home has none): the entity of
+    every feature and device, how its states read, and the services that switch a device; errors
+    through ``fail(key path, message)`` as the loader words them."""
     if section is None:
         return None
     path = "home_assistant"

@@ -122,8 +122,9 @@ class LogMap:
 def parse_log(
     section: object, features: Sequence[Feature], devices: Sequence[Device], fail: Fail
 ) -> LogMap | None:
-    """The validated section (``None`` where the home has none); errors through ``fail(key path,
-    message)`` as the loader words them."""
+    """The validated ``log`` section (``None`` where the home has none): the entity of every
+    feature and device and how its states read, the presence entities of a room feature, and the
+    quiet minutes; errors through ``fail(key path, message)`` as the loader words them."""
     if section is None:
         return None
     path = "log"

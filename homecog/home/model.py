@@ -224,13 +224,25 @@ class ComfortRule:
 
 
 @dataclass(frozen=True)
-class Rewards:
-    """Eq. 1 of the paper: total = terminal·w_t + progress·w_p + prohibited·w_x, each ±magnitude."""
+class RewardWeights:
+    """The weights w_t, w_p and w_x of Eq. 1's terminal, progress and prohibited terms."""
 
     terminal: float = 0.5
     progress: float = 0.2
     prohibited: float = 0.3
+
+
+@dataclass(frozen=True)
+class Rewards:
+    """Eq. 1 of the paper: total = terminal·w_t + progress·w_p + prohibited·w_x, each ±magnitude."""
+
+    weights: RewardWeights = field(default_factory=RewardWeights)
     magnitude: float = 10.0
+
+    def as_list(self) -> list[float]:
+        """w_t, w_p, w_x and the magnitude, in this order."""
+        w = self.weights
+        return [w.terminal, w.progress, w.prohibited, self.magnitude]
 
 
 @dataclass(frozen=True)

@@ -21,19 +21,18 @@ from homecog.home.shapes import ShapeChecks, kind_of, parse_device_state
 
 
 class RuleSections(ShapeChecks):
-    """The validation of ``comfort``, ``needs`` and ``prohibited``."""
+    """The validation of ``comfort``, ``needs`` and ``prohibited`` against a home's features
+    and devices."""
 
-    def condition(
-        self,
-        spec: object,
-        path: str,
-        features: tuple[Feature, ...],
-        devices: tuple[Device, ...],
-        context_only: bool,
-    ) -> Condition:
+    def __init__(self, source: str, features: tuple[Feature, ...], devices: tuple[Device, ...]) -> None:
+        super().__init__(source)
+        self.features = features
+        self.devices = devices
+
+    def condition(self, spec: object, path: str, context_only: bool) -> Condition:
         spec = self.mapping(spec, path, allow_empty=True)
-        fnames = [f.name for f in features]
-        dnames = [d.name for d in devices]
+        fnames = [f.name for f in self.features]
+        dnames = [d.name for d in self.devices]
         fconds, dconds = [], []
         for key, allowed in spec.items():
             kpath = f"{path}.{key}"
@@ -41,7 +40,7 @@ class RuleSections(ShapeChecks):
             if not values:
                 raise self.fail(kpath, "empty value list")
             if key in fnames:
-                feature = features[fnames.index(key)]
+                feature = self.features[fnames.index(key)]
                 codes = set()
                 for v in values:
                     text = str(v).strip() if not isinstance(v, (dict, list)) else None
@@ -90,34 +89,27 @@ class RuleSections(ShapeChecks):
             found[name] = self.rules(rules, path, parser(name, path))
         return tuple(found.get(name, ()) for name in names)
 
-    def comfort(
-        self, section: object, features: tuple[Feature, ...], devices: tuple[Device, ...]
-    ) -> tuple[tuple[ComfortRule, ...], ...]:
+    def comfort(self, section: object) -> tuple[tuple[ComfortRule, ...], ...]:
         def parse(rule: dict[str, Any], rpath: str) -> ComfortRule:
             self.keys(rule, rpath, ("when", "want"), ("want",))
-            when = self.condition(rule.get("when"), f"{rpath}.when", features, devices, True)
+            when = self.condition(rule.get("when"), f"{rpath}.when", True)
             want = parse_device_state(rule["want"])
             if want is None:
                 raise self.fail(f"{rpath}.want", f"expected on or off, got {rule['want']!r}")
             return ComfortRule(when=when, want=want)
 
-        return self.by_name(section, "comfort", [d.name for d in devices], "device", lambda _n, _p: parse)
+        return self.by_name(
+            section, "comfort", [d.name for d in self.devices], "device", lambda _n, _p: parse
+        )
 
     def service_rules(
-        self,
-        section: object,
-        key: str,
-        features: tuple[Feature, ...],
-        devices: tuple[Device, ...],
-        services: tuple[Service, ...],
+        self, section: object, key: str, services: tuple[Service, ...]
     ) -> tuple[tuple[Condition, ...], ...]:
         snames = [s.name for s in services]
 
         def parse(rule: dict[str, Any], rpath: str) -> Condition:
             self.keys(rule, rpath, ("when",))
-            return self.condition(
-                rule.get("when"), f"{rpath}.when", features, devices, context_only=key == "needs"
-            )
+            return self.condition(rule.get("when"), f"{rpath}.when", context_only=key == "needs")
 
         def parser(service: str, path: str) -> Callable[[dict[str, Any], str], Condition]:
             if key == "needs" and not services[snames.index(service)].is_interaction:

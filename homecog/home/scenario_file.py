@@ -32,7 +32,7 @@ from homecog.home.model import Home
 from homecog.home.states import parse_state
 from homecog.home.truth import TruthChoices, truth_with_choices
 from homecog.names import user_name_problem
-from homecog.text_files import text_lines
+from homecog.text_files import text_lines, timestamp_cell
 
 
 @dataclass(frozen=True)
@@ -104,7 +104,9 @@ def _rows(
         if None in row or any(row.get(c) is None for c in needed):
             raise EvaluationError(f"{path}: line {line}: expected {len(header)} fields")
         _check_readings(path, line, row, space, home)
-        timestamp = _check_timestamp(path, line, row["timestamp"]) if events or corrections else None
+        timestamp = (
+            timestamp_cell(row["timestamp"], path, line, EvaluationError) if events or corrections else None
+        )
         user = (row.get("user") or "").strip() or None  # a blank cell: the user the caller gives
         problem = None if user is None else user_name_problem(user)
         if problem is not None:
@@ -173,12 +175,3 @@ def _wanted(
             "(the truth home cannot say what is wanted where a reading is unknown)"
         )
     return truth_of(truth, point)
-
-
-def _check_timestamp(path: Path, line: int, value: str) -> datetime:
-    try:
-        return datetime.fromisoformat(value.strip())
-    except ValueError:
-        raise EvaluationError(
-            f"{path}: line {line}, column timestamp: {value!r} is not an ISO 8601 time"
-        ) from None

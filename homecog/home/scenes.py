@@ -26,22 +26,11 @@ first in the plan. The same function turns the groups' ground truth into the hom
 roll-outs into the home's roll-out and the tree's answers into the robot's: each is exact when
 its groups are.
 
->>> from homecog.home import load_home_text
->>> home = load_home_text('''
-... name: den
-... context: {who: {kind: categorical, values: [nobody, someone]}}
-... devices: {hood: {}, speaker: {}, lamp: {}}
-... services:
-...   HoodOff: {category: off, set: {hood: off}}
-...   MusicOff: {category: off, set: {speaker: off}}
-...   LampOn: {category: on, set: {lamp: on}}
-...   LampOff: {category: off, set: {lamp: off}}
-...   AllQuiet: {category: scene, set: {hood: off, speaker: off}}
-... comfort:
-...   hood: [{want: off}]
-...   speaker: [{want: off}]
-...   lamp: [{when: {who: [someone]}, want: on}, {want: off}]
-... ''')
+In the den of ``tests/homes/den.yaml`` the hood and the speaker are wanted off, the lamp on when
+someone is there; AllQuiet switches the hood and the speaker off at once:
+
+>>> from homecog.home import load_home
+>>> home = load_home("tests/homes/den.yaml")
 >>> [home.services[a].name for a in scene_services(home)]
 ['AllQuiet']
 >>> names = lambda plan: [home.services[a].name for a in plan]

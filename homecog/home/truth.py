@@ -10,24 +10,14 @@ number of devices, not with 2^devices. The optimal sets of the home are the prod
 groups' sets, with scenes in the place of the services they do the work of
 (:func:`homecog.home.scenes.compose`).
 
->>> from homecog.home import load_home_text
->>> home = load_home_text('''
-... name: den
-... context: {who: {kind: categorical, values: [nobody, someone]}}
-... devices: {hood: {}, speaker: {}, heater: {}}
-... services:
-...   HoodOff: {category: off, set: {hood: off}}
-...   MusicOff: {category: off, set: {speaker: off}}
-...   AllQuiet: {category: off, set: {hood: off, speaker: off}}
-...   HeatOn: {category: on, set: {heater: on}}
-... comfort:
-...   hood: [{want: off}]
-...   speaker: [{want: off}]
-...   heater: [{when: {who: [someone]}, want: on}, {want: off}]
-... ''')
->>> codes, states = home.discretize({"who": "someone", "hood": "on", "speaker": "on", "heater": "off"})
+In the den of ``tests/homes/den.yaml`` (the example of :mod:`homecog.home.scenes`), with someone
+there, the hood and the speaker on and the lamp off:
+
+>>> from homecog.home import load_home
+>>> home = load_home("tests/homes/den.yaml")
+>>> codes, states = home.discretize({"who": "someone", "hood": "on", "speaker": "on", "lamp": "off"})
 >>> [sorted(s) for s in optimal_service_sets(home, codes, states)]
-[['AllQuiet', 'HeatOn']]
+[['AllQuiet', 'LampOn']]
 """
 
 from __future__ import annotations

@@ -32,9 +32,9 @@ from homecog.home.floor import check_floor
 from homecog.home.home_assistant import parse_home_assistant
 from homecog.home.home_file import read_yaml, resolve_home
 from homecog.home.household import parse_household
-from homecog.home.layout import parse_layout
+from homecog.home.layout import Layout, parse_layout
 from homecog.home.log_section import parse_log
-from homecog.home.model import Device, Home, Rewards, Service, format_number
+from homecog.home.model import Device, Feature, Home, Rewards, RewardWeights, Service, format_number
 from homecog.home.routine import parse_routine
 from homecog.home.rule_sections import RuleSections
 from homecog.home.shapes import parse_device_state
@@ -59,7 +59,7 @@ _SECTIONS = (
 _REQUIRED = ("name", "context", "devices", "services", "comfort")
 
 
-class HomeValidator(ContextSection, RuleSections):
+class HomeValidator(ContextSection):
     """Walks the parsed YAML, building the model and failing with key paths."""
 
     def home(self, data: object) -> Home:
@@ -86,37 +86,17 @@ class HomeValidator(ContextSection, RuleSections):
                 f"devices.{sorted(clash)[0]}", "a device may not share a name with a context feature"
             )
         services = self.services(data["services"], devices)
-        comfort = self.comfort(data["comfort"], features, devices)
-        needs = self.service_rules(data.get("needs"), "needs", features, devices, services)
-        prohibited = self.service_rules(data.get("prohibited"), "prohibited", features, devices, services)
-        rewards = self.rewards(data.get("rewards"))
-        layout = None
-        if data.get("layout") is not None:
-            layout = parse_layout(
-                data["layout"],
-                self.fail,
-                devices={d.name: (d.room, d.iot) for d in devices},
-                interaction={s.name for s in services if not s.sets},
-                services={s.name for s in services},
-            )
-            location = next((f for f in features if f.name == "location" and f.is_discrete), None)
-            check_floor(
-                layout,
-                locations=location.values if location is not None else (),
-                devices={d.name: (d.room, d.iot) for d in devices},
-                fail=self.fail,
-            )
-
+        rules = RuleSections(self.source, features, devices)
         home = Home(
             name=name,
             features=features,
             devices=devices,
             services=services,
-            comfort=comfort,
-            needs=needs,
-            prohibited=prohibited,
-            rewards=rewards,
-            layout=layout,
+            comfort=rules.comfort(data["comfort"]),
+            needs=rules.service_rules(data.get("needs"), "needs", services),
+            prohibited=rules.service_rules(data.get("prohibited"), "prohibited", services),
+            rewards=self.rewards(data.get("rewards")),
+            layout=self.layout(data.get("layout"), features, devices, services),
             routine=parse_routine(data.get("routine"), features, devices, self.fail),
             home_assistant=parse_home_assistant(data.get("home_assistant"), features, devices, self.fail),
             household=parse_household(data.get("household"), self.fail),
@@ -126,6 +106,33 @@ class HomeValidator(ContextSection, RuleSections):
         )
         object.__setattr__(home, "content_hash", content_hash(home))
         return home
+
+    def layout(
+        self,
+        section: object,
+        features: tuple[Feature, ...],
+        devices: tuple[Device, ...],
+        services: tuple[Service, ...],
+    ) -> Layout | None:
+        """The floor plan (``None`` where the home has none), its rooms and places checked
+        against the home's devices, services and locations."""
+        if section is None:
+            return None
+        layout = parse_layout(
+            section,
+            self.fail,
+            devices={d.name: (d.room, d.iot) for d in devices},
+            interaction={s.name for s in services if not s.sets},
+            services={s.name for s in services},
+        )
+        location = next((f for f in features if f.name == "location" and f.is_discrete), None)
+        check_floor(
+            layout,
+            locations=location.values if location is not None else (),
+            devices={d.name: (d.room, d.iot) for d in devices},
+            fail=self.fail,
+        )
+        return layout
 
     def devices(self, section: object) -> tuple[Device, ...]:
         section = self.mapping(section, "devices")
@@ -182,7 +189,7 @@ class HomeValidator(ContextSection, RuleSections):
         self.keys(weights, "rewards.weights", ("terminal", "progress", "prohibited"))
         default = Rewards()
         values = {
-            k: self.number(weights.get(k, getattr(default, k)), f"rewards.weights.{k}")
+            k: self.number(weights.get(k, getattr(default.weights, k)), f"rewards.weights.{k}")
             for k in ("terminal", "progress", "prohibited")
         }
         magnitude = self.number(section.get("magnitude", default.magnitude), "rewards.magnitude")
@@ -190,7 +197,7 @@ class HomeValidator(ContextSection, RuleSections):
             raise self.fail(
                 "rewards.magnitude", f"expected a positive number, got {format_number(magnitude)}"
             )
-        return Rewards(magnitude=magnitude, **values)
+        return Rewards(RewardWeights(**values), magnitude)
 
 
 def load_home(name_or_path: str | Path) -> Home:

@@ -86,12 +86,7 @@ class Policy(MadeFor):
     def save(self, path: str | Path) -> Path:
         """Write the policy to ``path`` atomically and return the path."""
         path = Path(path)
-        meta = {
-            **self.tag(FORMAT),
-            "joint": self.joint,
-            "greedy_optimal_rate": self.greedy_optimal_rate,
-            "config": self.config,
-            "seconds": self.seconds,
+        meta = self.meta(FORMAT, "joint", "greedy_optimal_rate", "config", "seconds") | {
             "groups": [
                 {
                     "devices": list(g.devices),
@@ -158,14 +153,13 @@ class Policy(MadeFor):
             )
             for i, g in enumerate(meta["groups"])
         ]
-        return cls(
-            home_name=meta["home_name"],
-            home_hash=meta["home_hash"],
-            joint=meta["joint"],
+        return cls.restore(
+            meta,
+            "joint",
+            "greedy_optimal_rate",
+            "config",
             groups=groups,
             tables=tables,
-            greedy_optimal_rate=meta["greedy_optimal_rate"],
-            config=meta["config"],
             seconds=meta.get("seconds", 0.0),
         )
 

@@ -10,7 +10,7 @@ from __future__ import annotations
 import json
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Self
 
 import numpy as np
 
@@ -44,9 +44,19 @@ class MadeFor:
         """Raise :class:`QTableError` unless this was learned for ``home``."""
         check_made_for(self.home_name, self.home_hash, home, source)
 
-    def tag(self, file_format: int) -> dict[str, Any]:
-        """The first keys of the file's metadata: its format and the home it was made for."""
-        return {"format": file_format, "home_name": self.home_name, "home_hash": self.home_hash}
+    def meta(self, file_format: int, *names: str) -> dict[str, Any]:
+        """The file's metadata: its format, the home it was made for, then the attributes
+        ``names`` as they are."""
+        tag = {"format": file_format, "home_name": self.home_name, "home_hash": self.home_hash}
+        return tag | {name: getattr(self, name) for name in names}
+
+    @classmethod
+    def restore(cls, meta: dict[str, Any], *names: str, **values: Any) -> Self:
+        """The inverse of :meth:`meta`: made for the home ``meta`` names, with the attributes
+        ``names`` as ``meta`` holds them and the rest from ``values``."""
+        return cls(
+            home_name=meta["home_name"], home_hash=meta["home_hash"], **{n: meta[n] for n in names}, **values
+        )
 
 
 @dataclass
@@ -80,14 +90,8 @@ class QTable(MadeFor):
     def save(self, path: str | Path) -> Path:
         """Write the table to ``path`` (.npz) atomically and return the path."""
         path = Path(path)
-        meta = {
-            **self.tag(FORMAT),
-            "episodes": self.episodes,
-            "steps": self.steps,
-            "greedy_optimal_rate": self.greedy_optimal_rate,
-            "config": self.config,
-            "rng": int(self.rng[0]),
-        }
+        meta = self.meta(FORMAT, "episodes", "steps", "greedy_optimal_rate", "config")
+        meta["rng"] = int(self.rng[0])
         with atomic_write(path, QTableError) as f:
             np.savez_compressed(f, q=self.q, tried=self.tried, meta=np.array(json.dumps(meta)))
         return path
@@ -102,15 +106,14 @@ class QTable(MadeFor):
             tried = data["tried"]
         if meta.get("format") != FORMAT or q.ndim != 2 or tried.shape[0] != q.shape[0]:
             raise QTableError(f"{path}: not a homecog Q table (format {meta.get('format')!r})")
-        table = cls(
-            home_name=meta["home_name"],
-            home_hash=meta["home_hash"],
+        table = cls.restore(
+            meta,
+            "episodes",
+            "steps",
+            "greedy_optimal_rate",
+            "config",
             q=q,
             tried=tried,
-            episodes=meta["episodes"],
-            steps=meta["steps"],
-            greedy_optimal_rate=meta["greedy_optimal_rate"],
-            config=meta["config"],
             rng=np.array([meta["rng"]], dtype=np.int64),
         )
         if home is not None:
