@@ -6,9 +6,23 @@ prints its message as one line and exits non-zero, never with a traceback.
 
 from __future__ import annotations
 
+#: the most characters of an error's message the command line prints
+LINE = 1000
+
 
 class HomecogError(Exception):
     """Base class of every error homecog raises on bad input or state."""
+
+
+def one_line(message: str, limit: int = LINE) -> str:
+    r"""A message as the command line prints it: one line, of at most ``limit`` characters (a
+    value quoted from a hostile file is not echoed back whole).
+
+    >>> one_line("a.csv: line 2:\nbad"), one_line("x" * 20, limit=8)
+    ('a.csv: line 2: bad', 'xxxxxxx…')
+    """
+    text = message.replace("\r", " ").replace("\n", " ")
+    return text if len(text) <= limit else text[: limit - 1] + "…"
 
 
 class HomeFileError(HomecogError, ValueError):

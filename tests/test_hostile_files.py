@@ -125,6 +125,10 @@ HOME_CASES = {
         lambda p: p.write_text(STUDIO + "\x00\n"),
         f"line {STUDIO.count(chr(10)) + 1}: a NUL byte; a home file is text",
     ),
+    "one-long-text": (  # another file given as a home: not echoed back whole
+        lambda p: p.write_text("secret:" + "s" * 500_000 + "\n  more text"),
+        "expected a mapping, got the text 'secret:" + "s" * 33 + "…'",
+    ),
     "folder": (lambda p: p.mkdir(), "is a directory, not a home file"),
     "fifo": (lambda p: os.mkfifo(p), "is a named pipe (FIFO), not a home file"),
 }

@@ -140,6 +140,8 @@ def test_a_reading_not_yet_known_is_unknown_a_device_not_yet_known_incomplete(tm
          "line 3, column timestamp: has a time zone, unlike line 2's"),
         ("", "empty file; expected the header timestamp,entity,state[,user]"),
         ("timestamp,entity,state\n\n", "no rows after the header"),
+        ("timestamp,entity,state\n2024-03-01T06:00,x10.lamp," + "x" * 200_000 + "\n",
+         "line 2: not CSV: field larger than field limit (131072)"),
     ],
 )  # fmt: skip
 def test_a_broken_log_is_one_line_naming_file_and_line(
@@ -413,3 +415,13 @@ def test_several_rooms_live_at_once_are_the_value_the_home_names_for_it(tmp_path
     wrong = text.replace("several: both", "several: hall")
     with pytest.raises(HomeFileError, match=r"log\.features\.location\.several: unknown value 'hall'"):
         load_home_text(wrong, "studio_several.yaml")
+
+
+def test_a_long_bad_cell_is_not_echoed_back_whole(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    log = tmp_path / "log.csv"
+    log.write_text("timestamp,entity,state\n" + "9" * 100_000 + ",x10.lamp,on\n")
+    out = tmp_path / "e.csv"
+    assert main(["log", "events", "--home", str(STUDIO_LOG), "--log", str(log), "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"homecog: error: {log}: line 2, column timestamp: '999")
+    assert err.endswith("…\n") and len(err) == len("homecog: error: ") + 1000 + 1

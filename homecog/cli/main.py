@@ -19,7 +19,7 @@ from homecog.cli import evaluate, fleet, home, knowledge, learn, plan, up
 from homecog.cli.export import export_app
 from homecog.cli.ha import ha_app
 from homecog.cli.log import adapt_kasteren, log_app
-from homecog.errors import HomecogError
+from homecog.errors import HomecogError, one_line
 
 app = typer.Typer(
     name="homecog",
@@ -74,13 +74,13 @@ def main(argv: list[str] | None = None) -> int:
     try:
         result = app(args=args, prog_name="homecog", standalone_mode=False)
     except HomecogError as e:
-        print(f"homecog: error: {e}", file=sys.stderr)
+        print(f"homecog: error: {one_line(str(e))}", file=sys.stderr)
         return 2
     except click_errors.NoArgsIsHelpError:
         return 2  # the help was printed
     except click_errors.UsageError as e:
         where = f"{e.ctx.command_path}: " if e.ctx else ""
-        print(f"homecog: error: {where}{e.format_message()}".replace("\n", " "), file=sys.stderr)
+        print(f"homecog: error: {one_line(where + e.format_message())}", file=sys.stderr)
         return 2
     except typer.Abort:
         print("homecog: aborted", file=sys.stderr)

@@ -153,6 +153,14 @@ def read_log(path: Path) -> tuple[list[LogRow], int, int]:
     """The rows of a log in time order, the number of exact duplicates left out and the number
     of rows that were out of order; :class:`LogFileError` naming the file and line."""
     reader = csv.reader(io.StringIO(_text(path), newline=""))
+    try:
+        return _read_rows(path, reader)
+    except csv.Error as e:  # a quoted cell that never ends, or one over the field limit
+        raise LogFileError(f"{path}: line {reader.line_num}: not CSV: {e}") from None
+
+
+def _read_rows(path: Path, reader: Any) -> tuple[list[LogRow], int, int]:
+    """:func:`read_log`'s work, from the header on."""
     header = [c.strip() for c in next(reader, [])]
     where = _columns(path, header)
     rows: list[LogRow] = []

@@ -102,6 +102,8 @@ def read_sensors(path: Path) -> dict[str, tuple[str, str]]:
                 out[row[0].strip()] = (row[1].strip(), row[2].strip())
     except OSError as e:
         raise RealDataError(f"{path}: cannot read: {e.strerror}") from None
+    except csv.Error as e:  # a quoted cell that never ends, or one over the field limit
+        raise RealDataError(f"{path}: not CSV: {e}") from None
     return out
 
 

@@ -51,12 +51,32 @@ def join_path(path: str, key: object) -> str:
     return f"{path}.{key}" if path else str(key)
 
 
+#: the most characters of a value an error message quotes
+QUOTED = 40
+
+
+def quoted(value: object) -> str:
+    """A value as an error message quotes it: its repr, of at most :data:`QUOTED` characters of
+    the value (a whole file read as one text is not echoed back).
+
+    >>> quoted("lamp"), quoted("x" * 50)
+    ("'lamp'", "'xxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxx…'")
+    """
+    text = value if isinstance(value, str) else repr(value)
+    short = text if len(text) <= QUOTED else text[:QUOTED] + "…"
+    return repr(short) if isinstance(value, str) else short
+
+
 def kind_of(value: object) -> str:
-    """What a value is, as an error message says it (``a mapping``, ``the text 'x'``)."""
+    """What a value is, as an error message says it (``a mapping``, ``the text 'x'``).
+
+    >>> kind_of(None), kind_of([1]), kind_of("on"), kind_of(3.5)
+    ('nothing', 'a list', "the text 'on'", '3.5')
+    """
     if value is None:
         return "nothing"
-    return {dict: "a mapping", list: "a list", str: f"the text {value!r}", bool: f"{value}"}.get(
-        type(value), f"{value!r}"
+    return {dict: "a mapping", list: "a list", str: f"the text {quoted(value)}", bool: f"{value}"}.get(
+        type(value), quoted(value)
     )
 
 
