@@ -53,7 +53,13 @@ def q_table_path(home: Home, *, joint: bool = False) -> Path:
 def atomic_write(path: Path, error: type[Exception]) -> Iterator[BinaryIO]:
     """A file to write ``path`` through: a temporary file beside it, renamed into place when the
     block ends without an error, so a failed or interrupted write leaves the old file as it was.
-    An OS error becomes ``error`` naming the path."""
+    An OS error becomes ``error`` naming the path; a device or a named pipe is never renamed
+    over."""
+    from homecog.text_files import not_regular
+
+    kind = not_regular(path)
+    if kind is not None:
+        raise error(f"{path}: is {kind}, not a file to write")
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)

@@ -71,6 +71,19 @@ def _kind(mode: int) -> str | None:
     return None if stat.S_ISREG(mode) else "not a regular file"
 
 
+def not_regular(path: Path) -> str | None:
+    """What an existing ``path`` is when it is no regular file, in a user's words (``None`` for a
+    regular file or nothing there): a file to write is never a device or a pipe.
+
+    >>> not_regular(Path("/dev/null")), not_regular(Path("/no/such/file"))
+    ('a device', None)
+    """
+    try:
+        return _kind(os.stat(path).st_mode)
+    except OSError:
+        return None
+
+
 def open_regular(path: Path, *, limit: int, what: str, error: type[Exception]) -> int:
     """A file descriptor of ``path`` for reading, checked to be a regular file of at most
     ``limit`` bytes; ``error`` naming the path and what is wrong. Opening never blocks (a named

@@ -263,3 +263,34 @@ def test_a_user_name_is_refused_alike_by_the_command_line(user, why):
         ["cognize", "--home", str(HOMES / "studio.yaml"), "--context", CONTEXT, "--user", user],
         f"--user: {why}",
     )
+
+
+EXAMPLE = str(HOMES.parent.parent / "docs" / "examples" / "paper_ann-events.csv")
+
+
+# -- files to write ------------------------------------------------------------------------------
+@pytest.mark.parametrize(
+    ("args", "why"),
+    [
+        (["train", "--out", "{out}"], "--out {out}: is {kind}, not a file to write"),
+        (
+            ["replay", "--events", EXAMPLE, "--methods", "frequency", "--predictions", "{out}"],
+            "--predictions {out}: is {kind}, not a file to write",
+        ),
+        (
+            ["simulate", "--services", "SendDrinks", "--png", "{out}"],
+            "--png {out}: is {kind}, not a file to write",
+        ),
+    ],
+)
+@pytest.mark.parametrize("given", ["/dev/null", "fifo"])
+def test_a_device_or_a_pipe_is_never_written_over(tmp_path, args, why, given):
+    """``train --out /dev/null`` renamed its Q table over /dev/null (a regular file since), and
+    ``--predictions`` a named pipe waited for a reader for ever."""
+    out = Path(given) if given.startswith("/") else tmp_path / given
+    if given == "fifo":
+        os.mkfifo(out)
+    kind = "a device" if given.startswith("/") else "a named pipe (FIFO)"
+    filled = [a.replace("{out}", str(out)) for a in args]
+    one_line_error(filled, why.format(out=out, kind=kind), env={"HOMECOG_DATA": str(tmp_path / "data")})
+    assert (os.stat(out).st_mode & 0o170000) in (0o020000, 0o010000)  # still a device or a pipe

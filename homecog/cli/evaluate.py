@@ -87,7 +87,7 @@ def eval_command(
     names = method_names(methods)
     cases = _scenarios(scenarios)
     if report is not None:
-        check_writable(report / "report.md")
+        check_writable(report / "report.md", "--report")
     result = run_eval(
         h,
         t,
@@ -165,7 +165,7 @@ def _closed_loop(
 
         parse_start(start)  # a start that is no date and time fails before any learning
     if report is not None:
-        check_writable(report / "household.md")
+        check_writable(report / "household.md", "--report")
     store = Store.open(db or "sqlite://", h)
     try:
         tree = open_tree(h, store, progress=status)
@@ -223,7 +223,7 @@ def replay(
     h = load_home(home)
     names = method_names(methods)
     if report is not None:
-        check_writable(report / "replay.md")
+        check_writable(report / "replay.md", "--report")
     if predictions is not None:
         _check_file("--predictions", predictions)
     result = run_replay(
@@ -243,9 +243,15 @@ def replay(
 
 
 def _check_file(option: str, path: Path) -> None:
-    """Fail before the work when a file cannot be written there (one line naming it)."""
-    if path.is_dir():
-        raise UsageProblemError(f"{option} {path}: is a directory")
+    """Fail before the work when a file cannot be written there (one line naming it); a named
+    pipe without a reader would hang the command."""
+    from homecog.text_files import not_regular
+
+    kind = not_regular(path)
+    if kind is not None:
+        raise UsageProblemError(
+            f"{option} {path}: is {kind}" + ("" if path.is_dir() else ", not a file to write")
+        )
     if not path.parent.is_dir():
         raise UsageProblemError(f"{option} {path}: cannot write there: no directory {path.parent}")
     existed = path.exists()

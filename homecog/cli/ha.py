@@ -34,8 +34,13 @@ def _token(given: str | None) -> str:
 
 
 def _writable(path: Path, option: str = "--out") -> None:
-    if path.is_dir():
-        raise HomeAssistantError(f"{option} {path}: is a directory")
+    from homecog.text_files import not_regular
+
+    kind = not_regular(path)
+    if kind is not None:
+        raise HomeAssistantError(
+            f"{option} {path}: is {kind}" + ("" if path.is_dir() else ", not a file to write")
+        )
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
     except OSError as e:

@@ -104,19 +104,25 @@ def check_readable(path: Path, option: str, what: str, limit: int | None = None)
         raise UsageProblemError(f"{option} {e}") from None
 
 
-def check_writable(path: Path) -> None:
-    """Fail before the work, not after it, when ``path`` cannot be written."""
-    if path.is_dir():
-        raise UsageProblemError(f"--out {path}: is a directory")
+def check_writable(path: Path, option: str = "--out") -> None:
+    """Fail before the work, not after it, when ``path`` cannot be written: a folder, a device
+    or a named pipe (a file is written beside and renamed over it: never over ``/dev/null``)."""
+    from homecog.text_files import not_regular
+
+    kind = not_regular(path)
+    if kind is not None:
+        raise UsageProblemError(
+            f"{option} {path}: is {kind}" + ("" if path.is_dir() else ", not a file to write")
+        )
     blocker = next((p for p in path.parents if p.exists() and not p.is_dir()), None)
     if blocker is not None:
-        raise UsageProblemError(f"--out {path}: cannot write there: {blocker} is not a directory")
+        raise UsageProblemError(f"{option} {path}: cannot write there: {blocker} is not a directory")
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         with tempfile.NamedTemporaryFile(dir=path.parent, prefix=".homecog-check-"):
             pass
     except OSError as e:
-        raise UsageProblemError(f"--out {path}: cannot write there: {e.strerror}") from None
+        raise UsageProblemError(f"{option} {path}: cannot write there: {e.strerror}") from None
 
 
 def status(message: str) -> None:
