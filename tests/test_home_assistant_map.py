@@ -272,6 +272,14 @@ def test_the_ha_commands_say_what_is_wrong_in_one_line(
             f"recorder {tmp_path / 'no.db'}: no such file",
         ),
         (
+            ["ha", "history", "--recorder", "bogus://x", "--home", studio_ha, "--out", out],
+            "recorder bogus://x: not a database URL (Can't load plugin: sqlalchemy.dialects:bogus)\n",
+        ),
+        (
+            ["ha", "history", "--recorder", "/dev/zero", "--home", studio_ha, "--out", out],
+            "recorder /dev/zero: is a device, not a file\n",
+        ),
+        (
             ["ha", "history", "--recorder", "x.db", "--home", "paper", "--out", out],
             "paper.yaml: no home_assistant section; see homecog ha scaffold",
         ),

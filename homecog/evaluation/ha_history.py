@@ -36,12 +36,16 @@ from dataclasses import dataclass, field
 from datetime import datetime
 from functools import partial
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from homecog.errors import ContextError, HomeAssistantError
 from homecog.evaluation.event_stream import EventStream, LogRow, Reader, Skip
 from homecog.home.home_assistant import NO_READING, DeviceEntity, FeatureEntity, feature_value, nearest
 from homecog.home.model import Feature, Home
+from homecog.text_files import not_regular
+
+if TYPE_CHECKING:
+    from sqlalchemy import Engine
 
 log = logging.getLogger(__name__)
 
@@ -97,8 +101,33 @@ def recorder_url(recorder: str) -> str:
         return recorder
     path = Path(recorder)
     if not path.is_file():
-        raise HomeAssistantError(f"recorder {recorder}: {'is a folder' if path.is_dir() else 'no such file'}")
+        kind = not_regular(path)
+        raise HomeAssistantError(
+            f"recorder {recorder}: "
+            + (
+                "no such file"
+                if kind is None
+                else "is a folder"
+                if path.is_dir()
+                else f"is {kind}, not a file"
+            )
+        )
     return f"sqlite:///file:{path.resolve()}?mode=ro&uri=true"  # read-only: Home Assistant may be writing
+
+
+def _engine(url: str, shown: str) -> Engine:
+    """The recorder's engine; a URL SQLAlchemy cannot use is one line naming it."""
+    from sqlalchemy import create_engine
+    from sqlalchemy.exc import ArgumentError, NoSuchModuleError
+
+    try:
+        return create_engine(url)
+    except (ArgumentError, NoSuchModuleError, ValueError) as e:
+        raise HomeAssistantError(f"recorder {shown}: not a database URL ({e})") from None
+    except ImportError as e:
+        raise HomeAssistantError(
+            f"recorder {shown}: driver missing ({e.name}); install it with pip"
+        ) from None
 
 
 def _parse_time(text: str | None, option: str) -> float | None:
@@ -125,7 +154,7 @@ def read_history(
 ) -> HistoryResult:
     """Write the event file of a home's recorded switches by people; see the module docstring.
     With ``quiet`` minutes it adds quiet rows (:mod:`~homecog.evaluation.event_stream`)."""
-    from sqlalchemy import create_engine, text
+    from sqlalchemy import text
     from sqlalchemy.exc import SQLAlchemyError
 
     begin = time.perf_counter()
@@ -135,7 +164,7 @@ def read_history(
     start, end = _parse_time(since, "since"), _parse_time(until, "until")
     url = recorder_url(recorder)
     shown = recorder if "://" not in recorder else recorder.split("@")[-1]
-    engine = create_engine(url)
+    engine = _engine(url, shown)
     try:
         with engine.connect() as db:
             schema = _check_schema(db, shown)
