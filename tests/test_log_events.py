@@ -425,3 +425,14 @@ def test_a_long_bad_cell_is_not_echoed_back_whole(tmp_path: Path, capsys: pytest
     err = capsys.readouterr().err
     assert err.startswith(f"homecog: error: {log}: line 2, column timestamp: '999")
     assert err.endswith("…\n") and len(err) == len("homecog: error: ") + 1000 + 1
+
+
+@needs_kasteren
+@pytest.mark.parametrize("name", ["../../escaped", "a/b", ""])
+def test_a_house_name_is_never_a_path(tmp_path: Path, capsys: pytest.CaptureFixture[str], name: str) -> None:
+    """``--name ../../escaped`` wrote the home file and the log two folders above ``--out``."""
+    out = tmp_path / "a" / "b"
+    assert main(["adapt-kasteren", str(KASTEREN), "--out", str(out), "--name", name]) == 2
+    rule = "1 to 64 letters, digits, _ or -, beginning with a letter or digit"
+    assert capsys.readouterr() == ("", f"homecog: error: --name: {name!r} is not a home name: {rule}\n")
+    assert list(tmp_path.rglob("*.*")) == []

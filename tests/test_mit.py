@@ -109,3 +109,14 @@ def test_location_comes_from_the_other_sensors_never_the_devices(tmp_path):
     quiet = [(r["timestamp"][5:16], r["location"], r["behavior"]) for r in table if not r["services"]]
     assert quiet[:2] == [("04-01T17:50", "kitchen", "idle"), ("04-01T18:04", "unknown", "idle")]
     assert ("04-03T12:00", "unknown", "cooking") in quiet
+
+
+@pytest.mark.parametrize("name", ["../../escaped", "/tmp/x", "<b>x</b>", ""])
+def test_a_name_is_never_a_path(tmp_path, capsys, name):
+    """``--name ../../escaped`` wrote the home file and the log two folders above ``--out``;
+    ``<b>x</b>`` (a slash) was a traceback."""
+    out = tmp_path / "a" / "b"
+    assert main(["adapt-mit", str(DATA / "subject1"), "--out", str(out), "--name", name]) == 2
+    rule = "1 to 64 letters, digits, _ or -, beginning with a letter or digit"
+    assert capsys.readouterr() == ("", f"homecog: error: --name: {name!r} is not a home name: {rule}\n")
+    assert list(tmp_path.rglob("*.*")) == [] and not Path("/tmp/x.yaml").exists()

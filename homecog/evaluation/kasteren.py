@@ -45,7 +45,7 @@ from pathlib import Path
 
 from homecog.errors import RealDataError
 from homecog.evaluation.log_events import LogEvents, convert_log
-from homecog.evaluation.log_writer import DEVICE, PRESENCE, LogWriter, camel, slug
+from homecog.evaluation.log_writer import DEVICE, PRESENCE, LogWriter, camel, home_name, slug
 from homecog.home import load_home
 from homecog.text_files import check_file
 
@@ -198,6 +198,7 @@ def convert(folder: Path, house: str, out: Path, name: str | None = None) -> Hou
     house = house.strip().upper()
     if house not in HOUSES:
         raise RealDataError(f"house {house!r}: expected one of {', '.join(HOUSES)}")
+    name = home_name(name, f"kasteren_{house.lower()}")
 
     def path(stem: str) -> Path:
         return folder / f"{stem}.txt"
@@ -218,7 +219,6 @@ def convert(folder: Path, house: str, out: Path, name: str | None = None) -> Hou
         sensor = sensors.get(sid)
         entity = sensor.entity if sensor else f"sensor_{sid}"
         log.firings(entity, intervals, DEVICE if sensor and sensor.device else PRESENCE)
-    name = name or f"kasteren_{house.lower()}"
     out.mkdir(parents=True, exist_ok=True)
     home_path, log_path, events_path = (out / f"{name}{end}" for end in (".yaml", "-log.csv", "-events.csv"))
     home_path.write_text(home_yaml(name, house, sensors, labels), encoding="utf-8")

@@ -25,7 +25,9 @@ from dataclasses import dataclass, field
 from datetime import datetime
 from pathlib import Path
 
+from homecog.errors import RealDataError
 from homecog.home.states import state_word
+from homecog.names import home_name_problem
 
 Interval = tuple[datetime, datetime]
 # the order of rows at one time: a device's first state, then the activity, presence, devices
@@ -35,6 +37,24 @@ FIRST, ACTIVITY, PRESENCE, DEVICE = range(4)
 def slug(text: str) -> str:
     """A name as an identifier: ``Hall-Toilet door`` → ``hall_toilet_door``."""
     return re.sub(r"[^a-z0-9]+", "_", text.strip().lower()).strip("_")
+
+
+def home_name(given: str | None, default: str) -> str:
+    """The name of a converted home, ``given`` (``--name``) or ``default``, checked before a file is
+    named after it: a name is never a path.
+
+    >>> home_name(None, "mit_subject1"), home_name("den", "mit_subject1")
+    ('mit_subject1', 'den')
+    >>> home_name("../../x", "mit_subject1")  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    homecog.errors.RealDataError: --name: '../../x' is not a home name: 1 to 64 letters, digits, ...
+    """
+    name = default if given is None else given
+    problem = home_name_problem(name)
+    if problem is not None:
+        raise RealDataError(problem if given is None else f"--name: {problem}")
+    return name
 
 
 def camel(text: str) -> str:

@@ -42,7 +42,7 @@ from pathlib import Path
 
 from homecog.errors import RealDataError
 from homecog.evaluation.log_events import convert_log
-from homecog.evaluation.log_writer import ACTIVITY, DEVICE, PRESENCE, LogWriter, camel, slug
+from homecog.evaluation.log_writer import ACTIVITY, DEVICE, PRESENCE, LogWriter, camel, home_name, slug
 from homecog.home import load_home
 from homecog.text_files import check_file
 
@@ -180,11 +180,11 @@ def illumination(times: list[datetime]) -> list[float]:
 def convert(folder: Path, out: Path, name: str | None = None) -> tuple[Path, Path, int]:
     """Write ``<name>.yaml``, ``<name>-log.csv`` and ``<name>-events.csv`` for a subject's folder;
     returns the home's and the event file's paths and the number of events."""
+    name = home_name(name, f"mit_{slug(folder.name)}")
     sensors = read_sensors(folder / "sensors.csv")
     activities = sorted(read_activities(folder / "activities_data.csv"), key=lambda a: a.start)
     if not activities:
         raise RealDataError(f"{folder / 'activities_data.csv'}: no activities")
-    name = name or f"mit_{slug(folder.name)}"
     devices: dict[str, tuple[str, str]] = {}  # device -> (room slug, kind)
     device_of: dict[str, str] = {}
     for sid, (room, obj) in sensors.items():
