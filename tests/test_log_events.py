@@ -101,6 +101,28 @@ def test_quiet_minutes_decide_which_changes_are_rows(tmp_path: Path) -> None:
     assert (_convert(tmp_path, LOG, quiet=0).quiet, _convert(tmp_path, LOG, quiet=60).quiet) == (8, 0)
 
 
+def test_more_quiet_minutes_than_a_time_span_holds_are_no_quiet_row(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``--quiet 1e308`` was an OverflowError's traceback."""
+    log = tmp_path / "log.csv"
+    log.write_text(LOG)
+    for quiet in ("1e308", "inf"):
+        argv = [
+            "log",
+            "events",
+            "--home",
+            str(STUDIO_LOG),
+            "--log",
+            str(log),
+            "--out",
+            str(tmp_path / "e.csv"),
+        ]
+        assert main([*argv, "--quiet", quiet, "--json"]) == 0
+        out, err = capsys.readouterr()
+        assert (json.loads(out)["quiet"], json.loads(out)["near_switch"], err) == (0, 8, "")
+
+
 def test_a_reading_not_yet_known_is_unknown_a_device_not_yet_known_incomplete(tmp_path: Path) -> None:
     log = (
         "timestamp,entity,state,user\n"

@@ -159,6 +159,16 @@ class Presence:
             self.value = self.unknown
 
 
+def _window(minutes: float) -> timedelta:
+    """``quiet`` minutes as a time span; more than a span can hold (``--quiet 1e308``, ``inf``) is
+    the longest: no change is then quiet.
+
+    >>> _window(10), _window(1e308) == _window(float("inf")) == timedelta.max
+    (datetime.timedelta(seconds=600), True)
+    """
+    return timedelta.max if minutes >= timedelta.max / timedelta(minutes=1) else timedelta(minutes=minutes)
+
+
 class EventStream:
     """The context kept over a log's rows, and the switch and quiet rows it makes."""
 
@@ -289,12 +299,12 @@ class EventStream:
         switch within ``quiet`` minutes."""
         self._close()
         self._moment = None
-        window = timedelta(minutes=self.quiet or 0)
+        window = _window(self.quiet or 0)
         out, self.near_switch, self.quiet_rows = [], 0, 0
         for at, is_quiet, cells in self._rows:
             if is_quiet:
-                i = bisect.bisect_left(self._switched, at - window)
-                if i < len(self._switched) and self._switched[i] <= at + window:
+                i = bisect.bisect_left(self._switched, at)  # the switches around: before and at/after
+                if any(abs(s - at) <= window for s in self._switched[max(i - 1, 0) : i + 1]):
                     self.near_switch += 1
                     continue
                 self.quiet_rows += 1
