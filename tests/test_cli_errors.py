@@ -170,6 +170,31 @@ ERROR_CASES = [
         "{tmp}/nap.yaml: comfort.radio[0].when.activity: unknown value 'nap'",
         id="train-broken-home",
     ),
+    pytest.param(
+        ["train", "--home", STUDIO, "--epsilon-c", "nan"],
+        "homecog: error: epsilon_c must be ≥ 0 and finite and epsilon_min in [0, 1]",
+        id="train-epsilon-nan",
+    ),
+    pytest.param(
+        ["train", "--home", STUDIO, "--epsilon-c", "inf"],
+        "homecog: error: epsilon_c must be ≥ 0 and finite and epsilon_min in [0, 1]",
+        id="train-epsilon-inf",
+    ),
+    pytest.param(
+        ["train", "--home", STUDIO, "--max-steps", "1" + "0" * 22],
+        "homecog: error: max_steps must be at most 9223372036854775807, got 1" + "0" * 22,
+        id="train-max-steps-past-int64",
+    ),
+    pytest.param(
+        ["train", "--home", STUDIO, "--episodes", "1" + "0" * 22],
+        "homecog: error: episodes must be at most 9223372036854775807, got 1" + "0" * 22,
+        id="train-episodes-past-int64",
+    ),
+    pytest.param(
+        ["eval", "--home", STUDIO, "--days", "1", "--start", "9999-12-31 23:59"],
+        "homecog: error: --start 9999-12-31 23:59: 1 day from then is past the year 9999",
+        id="eval-start-at-the-end-of-time",
+    ),
     pytest.param(["train", "--bogus"], "No such option: --bogus", id="unknown-option"),
 ]
 

@@ -3,6 +3,7 @@ from event streams, real data."""
 
 from __future__ import annotations
 
+from datetime import datetime, timedelta
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any
 
@@ -163,7 +164,11 @@ def _closed_loop(
     if start is not None:
         from homecog.context.simulated import parse_start
 
-        parse_start(start)  # a start that is no date and time fails before any learning
+        moment = parse_start(start)  # a start that is no date and time fails before any learning
+        if datetime.max - moment <= timedelta(days=days + 1):
+            raise UsageProblemError(
+                f"--start {start}: {days} day{'s' * (days != 1)} from then is past the year 9999"
+            )
     if report is not None:
         check_writable(report / "household.md", "--report")
     store = Store.open(db or "sqlite://", h)

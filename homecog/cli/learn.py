@@ -55,7 +55,7 @@ def train(
     from dataclasses import replace
 
     from homecog.learning.grouped import train_policy
-    from homecog.learning.sarsa import SarsaConfig
+    from homecog.learning.sarsa import INT64_MAX, SarsaConfig
     from homecog.learning.size import check_size
     from homecog.paths import q_table_path
 
@@ -74,6 +74,8 @@ def train(
         raise UsageProblemError(str(e)) from None
     if episodes is not None and episodes < 0:
         raise UsageProblemError(f"episodes must be 0 or more, got {episodes}")
+    if episodes is not None and episodes > INT64_MAX:
+        raise UsageProblemError(f"episodes must be at most {INT64_MAX}, got {episodes}")
     size = check_size(h, joint=joint)
     path = out if out is not None else q_table_path(h, joint=joint)
     check_writable(path)

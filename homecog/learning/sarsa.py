@@ -47,6 +47,8 @@ from homecog.learning.qtable import QTable
 
 _jit = numba.njit(cache=True, nogil=True)
 _inline = numba.njit(cache=True, nogil=True, inline="always")
+#: the most a count the kernel takes may be (an int64)
+INT64_MAX = 2**63 - 1
 
 
 @dataclass(frozen=True)
@@ -76,10 +78,14 @@ class SarsaConfig:
             raise ValueError(f"alpha must be in (0, 1], got {self.alpha}")
         if not 0 <= self.gamma <= 1:
             raise ValueError(f"gamma must be in [0, 1], got {self.gamma}")
-        if self.epsilon_c < 0 or not 0 <= self.epsilon_min <= 1:
-            raise ValueError("epsilon_c must be ≥ 0 and epsilon_min in [0, 1]")
+        if not 0 <= self.epsilon_c < math.inf or not 0 <= self.epsilon_min <= 1:  # NaN is neither
+            raise ValueError("epsilon_c must be ≥ 0 and finite and epsilon_min in [0, 1]")
         if self.max_steps < 1:
             raise ValueError(f"max_steps must be at least 1, got {self.max_steps}")
+        if self.max_steps > INT64_MAX:
+            raise ValueError(f"max_steps must be at most {INT64_MAX}, got {self.max_steps}")
+        if self.episodes > INT64_MAX:
+            raise ValueError(f"episodes must be at most {INT64_MAX}, got {self.episodes}")
         if self.seed < 0:
             raise ValueError(f"seed must be 0 or more, got {self.seed}")
 
