@@ -171,6 +171,11 @@ def test_eval_json_and_learning_curve(tmp_path, capsys):
         (["--truth", "paper"], "not compatible with home 'studio'"),
         (["--scenarios", "0"], "--scenarios must be at least 1"),
         (["--scenarios", "nothere.csv"], "--scenarios nothere.csv: no such file"),
+        (
+            ["--scenarios", "1" + "0" * 23],
+            f"the number of scenarios must be from 1 to 1,000,000, got 1{'0' * 23}",
+        ),
+        (["--corrections", "1000001"], "the number of corrections must be from 0 to 1,000,000, got 1000001"),
         (["--methods", "multi,svm"], "--methods: unknown method 'svm'"),
         (
             ["--corrections", "-2"],

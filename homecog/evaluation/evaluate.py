@@ -41,6 +41,10 @@ from homecog.learning.size import check_size
 
 Progress = Callable[[str], None]
 
+#: the most random scenarios, and the most corrections, one evaluation makes: a larger number is
+#: refused at once as a mistyped one, where it would run for days
+MAX_SCENARIOS = 1_000_000
+
 
 def check_truth(home: Home, truth: Home) -> None:
     """Refuse a truth home that is not compatible, naming what differs."""
@@ -198,8 +202,14 @@ def run(
     if isinstance(scenarios, Path):
         cases = load_scenarios(scenarios, home, truth)
     else:
-        if scenarios < 1:
-            raise EvaluationError(f"the number of scenarios must be at least 1, got {scenarios}")
+        if not 1 <= scenarios <= MAX_SCENARIOS:
+            raise EvaluationError(
+                f"the number of scenarios must be from 1 to {MAX_SCENARIOS:,}, got {scenarios}"
+            )
+    if not 0 <= corrections <= MAX_SCENARIOS:
+        raise EvaluationError(
+            f"the number of corrections must be from 0 to {MAX_SCENARIOS:,}, got {corrections}"
+        )
         cases = random_scenarios(home, scenarios, seed=seed, truth=truth)
     policy = ensure_policy(home, joint=joint, progress=progress)
     learned = learn_methods(

@@ -120,8 +120,10 @@ def _engine(url: str, shown: str) -> Engine:
     from sqlalchemy import create_engine
     from sqlalchemy.exc import ArgumentError, NoSuchModuleError
 
+    from homecog.knowledge.database import server_connect_args
+
     try:
-        return create_engine(url)
+        return create_engine(url, connect_args=server_connect_args(url))
     except (ArgumentError, NoSuchModuleError, ValueError) as e:
         raise HomeAssistantError(f"recorder {shown}: not a database URL ({e})") from None
     except ImportError as e:

@@ -55,6 +55,23 @@ def redact(url: str) -> str:
         return url
 
 
+def server_connect_args(url: str) -> dict[str, Any]:
+    """The connection arguments for a database server's URL: a ``connect_timeout`` of
+    :data:`CONNECT_TIMEOUT` seconds unless the URL says one (a server that drops packets must not
+    hang a command: libpq waits forever by default).
+
+    >>> server_connect_args("postgresql://db/x"), server_connect_args("mysql://db/x?connect_timeout=3")
+    ({'connect_timeout': 10}, {})
+    """
+    parsed = make_url(url)
+    if (
+        parsed.get_backend_name() in ("postgresql", "mysql", "mariadb")
+        and "connect_timeout" not in parsed.query
+    ):
+        return {"connect_timeout": CONNECT_TIMEOUT}
+    return {}
+
+
 def make_engine(url: str) -> Engine:
     """An engine for a URL; SQLite gets WAL, a busy timeout and immediate write transactions."""
     try:
@@ -82,15 +99,7 @@ def make_engine(url: str) -> Engine:
                 conn.exec_driver_sql("BEGIN IMMEDIATE")
 
             return engine
-        # a server that drops packets must not hang a command: libpq waits forever by default
-        parsed = make_url(url)
-        connect_args: dict[str, Any] = {}
-        if (
-            parsed.get_backend_name() in ("postgresql", "mysql", "mariadb")
-            and "connect_timeout" not in parsed.query
-        ):
-            connect_args["connect_timeout"] = CONNECT_TIMEOUT
-        return create_engine(url, pool_pre_ping=True, connect_args=connect_args)
+        return create_engine(url, pool_pre_ping=True, connect_args=server_connect_args(url))
     except (ArgumentError, NoSuchModuleError, ValueError) as e:
         raise StoreError(f"database {redact(url)}: not a database URL ({e})") from None
     except ImportError as e:
