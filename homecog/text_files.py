@@ -33,7 +33,7 @@ from __future__ import annotations
 import codecs
 import os
 import stat
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from datetime import datetime
 from pathlib import Path
@@ -195,3 +195,17 @@ def timestamp_cell(text: str, path: Path, line: int, error: type[Exception]) -> 
         return datetime.fromisoformat(text.strip())
     except ValueError:
         raise error(f"{path}: line {line}, column timestamp: {text!r} is not an ISO 8601 time") from None
+
+
+def check_header_unique(header: Sequence[str], path: Path, error: type[Exception]) -> None:
+    """A header whose columns each have their own name; ``error`` naming the path and those named
+    twice otherwise (which of two cells of one name would be read is nobody's guess).
+
+    >>> check_header_unique(["timestamp", "lamp", "lamp"], Path("e.csv"), ValueError)
+    Traceback (most recent call last):
+    ...
+    ValueError: e.csv: line 1: column(s) named twice: lamp
+    """
+    twice = sorted({c for c in header if header.count(c) > 1})
+    if twice:
+        raise error(f"{path}: line 1: column(s) named twice: {', '.join(twice)}")

@@ -76,6 +76,7 @@ HEADER = "time,light,activity,blind,desk_lamp,radio"
     [
         ("time,light,activity\n08:00,5,work\n", "line 1: missing column(s) blind, desk_lamp, radio"),
         (f"{HEADER},mood\n08:00,5,work,on,off,off,calm\n", "line 1: unknown column(s) mood"),
+        (f"{HEADER},radio\n08:00,5,work,on,off,off,on\n", "line 1: column(s) named twice: radio"),
         (
             f"{HEADER}\n08:00,5,work,on,off,off\n08:00,5,dance,on,off,off\n",
             "line 3, column activity: activity: unknown value 'dance'; expected one of work, relax, sleep",

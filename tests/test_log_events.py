@@ -157,6 +157,7 @@ def test_a_reading_not_yet_known_is_unknown_a_device_not_yet_known_incomplete(tm
          "line 3, column timestamp: 'yesterday' is not an ISO 8601 time"),
         ("timestamp,entity\n2024-03-01T06:00,x10.lamp\n", "line 1: missing column(s) state"),
         ("timestamp,entity,state,room\n", "line 1: unknown column(s) room"),
+        ("timestamp,entity,state,state\n2024-03-01T06:00,x10.lamp,on,off\n", "line 1: column(s) named twice: state"),
         ("timestamp,entity,state\n2024-03-01T06:00,x10.lamp\n", "line 2: expected 3 fields, got 2"),
         ("timestamp,entity,state\n2024-03-01T06:00,x10.lamp,on\n2024-03-01T06:01+01:00,x10.lamp,off\n",
          "line 3, column timestamp: has a time zone, unlike line 2's"),

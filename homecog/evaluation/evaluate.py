@@ -182,6 +182,16 @@ class EvalReport:
         return out
 
 
+def _check_counts(scenarios: int | Path, corrections: int) -> None:
+    """The number of random scenarios (where not a file) and of corrections, within bounds."""
+    if not isinstance(scenarios, Path) and not 1 <= scenarios <= MAX_SCENARIOS:
+        raise EvaluationError(f"the number of scenarios must be from 1 to {MAX_SCENARIOS:,}, got {scenarios}")
+    if not 0 <= corrections <= MAX_SCENARIOS:
+        raise EvaluationError(
+            f"the number of corrections must be from 0 to {MAX_SCENARIOS:,}, got {corrections}"
+        )
+
+
 def run(
     home: Home,
     truth: Home,
@@ -199,17 +209,10 @@ def run(
     start = time.perf_counter()
     check_truth(home, truth)
     check_size(home, joint=joint)  # before anything that takes time
+    _check_counts(scenarios, corrections)
     if isinstance(scenarios, Path):
         cases = load_scenarios(scenarios, home, truth)
     else:
-        if not 1 <= scenarios <= MAX_SCENARIOS:
-            raise EvaluationError(
-                f"the number of scenarios must be from 1 to {MAX_SCENARIOS:,}, got {scenarios}"
-            )
-    if not 0 <= corrections <= MAX_SCENARIOS:
-        raise EvaluationError(
-            f"the number of corrections must be from 0 to {MAX_SCENARIOS:,}, got {corrections}"
-        )
         cases = random_scenarios(home, scenarios, seed=seed, truth=truth)
     policy = ensure_policy(home, joint=joint, progress=progress)
     learned = learn_methods(

@@ -53,7 +53,7 @@ from homecog.home.home_assistant import FeatureEntity
 from homecog.home.home_assistant import feature_value as entity_value
 from homecog.home.log_section import LogDevice, LogFeature, LogMap
 from homecog.home.model import Feature, Home
-from homecog.text_files import ROWS_FILE_LIMIT, read_text, timestamp_cell
+from homecog.text_files import ROWS_FILE_LIMIT, check_header_unique, read_text, timestamp_cell
 
 COLUMNS = ("timestamp", "entity", "state")
 REASONS = (
@@ -195,6 +195,7 @@ def _columns(path: Path, header: list[str]) -> dict[str, int]:
     """Where each column of a log's header is; :class:`LogFileError` for a missing or unknown one."""
     if not header:
         raise LogFileError(f"{path}: empty file; expected the header {','.join(COLUMNS)}[,user]")
+    check_header_unique(header, path, LogFileError)
     missing = [c for c in COLUMNS if c not in header]
     if missing:
         raise LogFileError(f"{path}: line 1: missing column(s) {', '.join(missing)}")

@@ -32,7 +32,7 @@ from homecog.home.model import Home
 from homecog.home.states import parse_state
 from homecog.home.truth import TruthChoices, truth_with_choices
 from homecog.names import user_name_problem
-from homecog.text_files import text_lines, timestamp_cell
+from homecog.text_files import check_header_unique, text_lines, timestamp_cell
 
 
 @dataclass(frozen=True)
@@ -133,6 +133,7 @@ def _check_header(
     """The columns: every feature and device, a first ``timestamp`` for events, nothing unknown."""
     if not header:
         raise EvaluationError(f"{path}: empty file; expected a header with {', '.join(needed)}")
+    check_header_unique(header, path, EvaluationError)
     required = [*needed, "timestamp"] if events or corrections else needed
     missing = [c for c in [*required, *(["services"] if corrections else [])] if c not in header]
     if missing:
