@@ -55,11 +55,11 @@ def atomic_write(path: Path, error: type[Exception]) -> Iterator[BinaryIO]:
     block ends without an error, so a failed or interrupted write leaves the old file as it was.
     An OS error becomes ``error`` naming the path; a device or a named pipe is never renamed
     over."""
-    from homecog.text_files import not_regular
+    from homecog.text_files import not_to_write
 
-    kind = not_regular(path)
-    if kind is not None:
-        raise error(f"{path}: is {kind}, not a file to write")
+    problem = not_to_write(path)
+    if problem is not None:
+        raise error(f"{path}: {problem}")
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)

@@ -84,6 +84,19 @@ def not_regular(path: Path) -> str | None:
         return None
 
 
+def not_to_write(path: Path) -> str | None:
+    """Why ``path`` is no file to write (a folder, a device, a named pipe: a file is written
+    beside it and renamed over it, and a pipe without a reader would hang the writer), or None.
+
+    >>> not_to_write(Path("/dev/null")), not_to_write(Path("/")), not_to_write(Path("/no/such"))
+    ('is a device, not a file to write', 'is a directory', None)
+    """
+    kind = not_regular(path)
+    if kind is None:
+        return None
+    return f"is {kind}" if path.is_dir() else f"is {kind}, not a file to write"
+
+
 def open_regular(path: Path, *, limit: int, what: str, error: type[Exception]) -> int:
     """A file descriptor of ``path`` for reading, checked to be a regular file of at most
     ``limit`` bytes; ``error`` naming the path and what is wrong. Opening never blocks (a named

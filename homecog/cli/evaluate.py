@@ -250,13 +250,11 @@ def replay(
 def _check_file(option: str, path: Path) -> None:
     """Fail before the work when a file cannot be written there (one line naming it); a named
     pipe without a reader would hang the command."""
-    from homecog.text_files import not_regular
+    from homecog.text_files import not_to_write
 
-    kind = not_regular(path)
-    if kind is not None:
-        raise UsageProblemError(
-            f"{option} {path}: is {kind}" + ("" if path.is_dir() else ", not a file to write")
-        )
+    problem = not_to_write(path)
+    if problem is not None:
+        raise UsageProblemError(f"{option} {path}: {problem}")
     if not path.parent.is_dir():
         raise UsageProblemError(f"{option} {path}: cannot write there: no directory {path.parent}")
     existed = path.exists()

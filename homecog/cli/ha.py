@@ -34,13 +34,11 @@ def _token(given: str | None) -> str:
 
 
 def _writable(path: Path, option: str = "--out") -> None:
-    from homecog.text_files import not_regular
+    from homecog.text_files import not_to_write
 
-    kind = not_regular(path)
-    if kind is not None:
-        raise HomeAssistantError(
-            f"{option} {path}: is {kind}" + ("" if path.is_dir() else ", not a file to write")
-        )
+    problem = not_to_write(path)
+    if problem is not None:
+        raise HomeAssistantError(f"{option} {path}: {problem}")
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
     except OSError as e:

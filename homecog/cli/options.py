@@ -107,13 +107,11 @@ def check_readable(path: Path, option: str, what: str, limit: int | None = None)
 def check_writable(path: Path, option: str = "--out") -> None:
     """Fail before the work, not after it, when ``path`` cannot be written: a folder, a device
     or a named pipe (a file is written beside and renamed over it: never over ``/dev/null``)."""
-    from homecog.text_files import not_regular
+    from homecog.text_files import not_to_write
 
-    kind = not_regular(path)
-    if kind is not None:
-        raise UsageProblemError(
-            f"{option} {path}: is {kind}" + ("" if path.is_dir() else ", not a file to write")
-        )
+    problem = not_to_write(path)
+    if problem is not None:
+        raise UsageProblemError(f"{option} {path}: {problem}")
     blocker = next((p for p in path.parents if p.exists() and not p.is_dir()), None)
     if blocker is not None:
         raise UsageProblemError(f"{option} {path}: cannot write there: {blocker} is not a directory")
