@@ -59,6 +59,24 @@ def test_a_whole_stream_is_learned_by_the_posterior_over_keys():
     assert (yes.key, yes.cell) == ((0, 1), (1, "a"))
 
 
+def test_a_key_that_never_saw_the_moment_sleeps():
+    rng = random.Random(2)
+    # wanted exactly where the recent atom says "a" (one moment in five): its key takes the weight
+    rows = [(rng.randrange(3), "a" if rng.random() < 0.2 else "b") for _ in range(300)]
+    learner = _stream_learner([(c, r, r == "a") for c, r in rows])
+    assert sum(w for i, w in learner.posterior() if 1 in learner.keys[i]) > 0.99
+    # a recent atom never seen: the keys holding it sleep, and those that know the moment (the
+    # context atom's, the base rate's) answer, about one in five, not the ½ of an empty cell
+    new = learner.decide([None, None], [1, 0], shared=False, recent=("c",))
+    assert 1 not in new.key and new.wanted + new.unwanted > 0
+    assert 0.1 < new.share < 0.3 and new.sign == -1
+    known = learner.decide([None, None], [1, 0], shared=False, recent=("a",))
+    assert known.share > 0.95 and 1 in known.key
+    # one example: only the base rate's key and the keys of its own cells know anything
+    one = _stream_learner([(1, "a", True)])
+    assert one.decide([None, None], [2, 0], shared=False, recent=("b",)).share == 0.75
+
+
 def test_a_partial_example_ends_the_stream_and_snapshots_never_start_one():
     learner = _stream_learner([(1, "a", True), (0, "b", False)])
     assert learner.streaming

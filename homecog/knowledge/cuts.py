@@ -1,11 +1,14 @@
-"""The arithmetic of a user's evidence: a cell's leave-one-out loss, and the thresholds a
-person would say between readings (:mod:`homecog.knowledge.evidence` uses them)."""
+"""The arithmetic of a user's evidence: a cell's leave-one-out loss, the thresholds a person
+would say between readings, and the interval a learned answer holds over
+(:mod:`homecog.knowledge.evidence` uses them)."""
 
 from __future__ import annotations
 
 import functools
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
+
+from homecog.knowledge.keys import Decision, sign_of
 
 
 @functools.lru_cache(maxsize=1 << 16)
@@ -66,3 +69,28 @@ def best_cut(readings: Sequence[float], labels: Sequence[bool]) -> float | None:
     if best_i < 0:
         return None
     return round_cut(pairs[best_i][0], pairs[best_i + 1][0])
+
+
+def widened(
+    table: Mapping[tuple[object, ...], Sequence[int]], decision: Decision, pos: int, cuts: tuple[float, ...]
+) -> tuple[float, float]:
+    """The interval of the numeric atom at ``pos`` of a decision's cell (its lower cut),
+    widened over the neighbouring cells of ``table`` (the same other atoms) that decide the
+    same way; ``(-inf, inf)`` where the atom is no interval between ``cuts``."""
+    atom = decision.cell[pos]
+    if not isinstance(atom, float) or (atom not in cuts and atom != -math.inf):
+        return (-math.inf, math.inf)
+    k = 0 if atom == -math.inf else cuts.index(atom) + 1  # the interval's position
+
+    def same(i: int) -> bool:
+        lower = cuts[i - 1] if i else -math.inf
+        cell = (*decision.cell[:pos], lower, *decision.cell[pos + 1 :])
+        p, n, last = table.get(cell, (0, 0, 0))
+        return p + n > 0 and sign_of(p / (p + n), decision.threshold, last) == decision.sign
+
+    low, high = k, k
+    while low > 0 and same(low - 1):
+        low -= 1
+    while high < len(cuts) and same(high + 1):
+        high += 1
+    return (cuts[low - 1] if low > 0 else -math.inf, cuts[high] if high < len(cuts) else math.inf)

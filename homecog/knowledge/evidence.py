@@ -44,7 +44,7 @@ import math
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 
-from homecog.knowledge.cuts import best_cut, loo_loss
+from homecog.knowledge.cuts import best_cut, loo_loss, widened
 from homecog.knowledge.keys import Atom, Decision, Key, Recent, cell_of, keys_of, sign_of
 
 #: the fewest examples a cell of a key with fewer atoms must hold to answer for an empty one
@@ -320,14 +320,21 @@ class ServiceLearner:
         share = p / (p + n)
         return Decision(sign_of(share, threshold, last), key, cell, p, n, threshold, share)
 
+    def _candidates(self, snapshot: bool) -> range | list[int]:
+        """The keys a stream's answer weighs: every key, or for a ``snapshot`` (a context
+        without its recent past) the keys of the context alone."""
+        if not snapshot:
+            return range(len(self.keys))
+        return [i for i in range(len(self.keys)) if i not in self._recent_keys]
+
     def posterior(self, *, snapshot: bool = False) -> list[tuple[int, float]]:
         """In a stream: the keys' weights, each ``exp(−prequential loss)`` normalized (Bayes'
         rule over the keys, each a model of the stream), those below 10⁻⁶ left out; for a
-        ``snapshot`` (a context without its recent past) the keys of the context alone."""
+        ``snapshot`` the keys of the context alone."""
         if self._posterior is None:
             self._posterior = {}
         if snapshot not in self._posterior:
-            candidates = [i for i in range(len(self.keys)) if not (snapshot and i in self._recent_keys)]
+            candidates = self._candidates(snapshot)
             least = min(self._preq[i] for i in candidates)
             weights = [(i, math.exp(least - self._preq[i])) for i in candidates]
             total = sum(w for _, w in weights)
@@ -337,16 +344,26 @@ class ServiceLearner:
     def _mixed(self, atoms: tuple[Atom, ...], threshold: float, *, snapshot: bool) -> Decision:
         """In a stream: the probability that the service is wanted, averaged over the keys by
         their posterior weights, each key saying its cell's share (with half an example of each
-        label, so a cell it has never seen says ½: something new is happening); the key of the
-        most weight and its cell explain it."""
-        tables, cell_of = self._tables, self._cell
-        posterior = self.posterior(snapshot=snapshot)
-        share = sum(w * kt_share(tables[i].get(cell_of[i](atoms))) for i, w in posterior)
-        i = max(posterior, key=lambda iw: iw[1])[0]
-        key = self.keys[i]
-        cell = cell_of[i](atoms)
-        p, n, last = tables[i].get(cell, (0, 0, 0))
-        return Decision(sign_of(share, threshold, last), key, cell, p, n, threshold, share)
+        label). A key whose cell here holds no example has nothing to say and sleeps: the keys
+        that know the cell share the weight, in proportion to theirs (sleeping experts, Freund
+        et al., "Using and combining predictors that specialize", STOC 1997), so a key that
+        never saw this moment does not pull the answer to ½; where no key knows it (no
+        example yet), ½. The key of the most weight among those awake and its cell explain it."""
+        tables, cell_of, preq = self._tables, self._cell, self._preq
+        awake = []
+        for i in self._candidates(snapshot):
+            counts = tables[i].get(cell_of[i](atoms))
+            if counts is not None:
+                awake.append((preq[i], i, counts))
+        if not awake:
+            return Decision(sign_of(0.5, threshold, 0), (), (), 0, 0, threshold)
+        least = min(awake)[0]
+        weights = [math.exp(least - loss) for loss, _, _ in awake]
+        share = sum(w * kt_share(counts) for w, (_, _, counts) in zip(weights, awake, strict=True))
+        share /= sum(weights)
+        _, i, (p, n, last) = min(awake, key=lambda lic: (round(lic[0], 6), self._prior_rank[lic[1]]))
+        sign = sign_of(share, threshold, last)
+        return Decision(sign, self.keys[i], cell_of[i](atoms), p, n, threshold, share)
 
     def backoff(self) -> list[Key]:
         """The best key, then the best of its keys with one atom less, and so on to the empty key
@@ -372,23 +389,4 @@ class ServiceLearner:
     def interval(self, decision: Decision, j: int) -> tuple[float, float]:
         """The interval of numeric feature ``j`` in a decision's cell, widened over neighbouring
         cells (the same other atoms) that decide the same way: the learned interval."""
-        pos = decision.key.index(j)
-        atom = decision.cell[pos]
-        cuts = self.cuts[j]
-        if not isinstance(atom, float) or (atom not in cuts and atom != -math.inf):
-            return (-math.inf, math.inf)
-        k = 0 if atom == -math.inf else cuts.index(atom) + 1  # the interval's position
-        table = self._tables[self._index[decision.key]]
-
-        def same(i: int) -> bool:
-            lower = cuts[i - 1] if i else -math.inf
-            cell = (*decision.cell[:pos], lower, *decision.cell[pos + 1 :])
-            p, n, last = table.get(cell, (0, 0, 0))
-            return p + n > 0 and sign_of(p / (p + n), decision.threshold, last) == decision.sign
-
-        low, high = k, k
-        while low > 0 and same(low - 1):
-            low -= 1
-        while high < len(cuts) and same(high + 1):
-            high += 1
-        return (cuts[low - 1] if low > 0 else -math.inf, cuts[high] if high < len(cuts) else math.inf)
+        return widened(self._tables[self._index[decision.key]], decision, decision.key.index(j), self.cuts[j])
