@@ -8,7 +8,8 @@ event predicted, then learned); the table gives every method's F1, multi's lead 
 baseline (of every method but homecog's own modes, multi and paper) and over ``ha_usage`` and
 ``markov``, with 95 % paired bootstrap intervals over the events. Writes
 ``docs/eval/real/<home>.png`` (the running F1 of every method), ``real.json`` beside them
-and the table between the ``real`` markers of docs/figures.md:
+the table between the ``real`` markers of docs/figures.md and a short one between those of
+README.md (when every home was replayed):
 
     bin/bench real
     .venv/bin/python benchmarks/bench_real.py [--homes mit_subject1,kasteren_a] [--no-readme]
@@ -39,7 +40,7 @@ from homecog.home import load_home  # noqa: E402
 DATA = ROOT.parent / "shared" / "realdata"
 HOMES = ("mit_subject1", "mit_subject2", "kasteren_a", "kasteren_b", "kasteren_c")
 OUT = ROOT / "docs" / "eval" / "real"
-README = ROOT / "docs" / "figures.md"  # where the table is
+README = ROOT / "docs" / "figures.md"  # where the whole table is (README.md: a short one)
 BEGIN, END = "<!-- real:begin -->", "<!-- real:end -->"
 console = Console(stderr=True)
 
@@ -84,12 +85,29 @@ def table_markdown(results: dict[str, ReplayResult], switches: dict[str, int]) -
     return "\n".join(lines)
 
 
-def update_readme(markdown: str) -> bool:
-    text = README.read_text(encoding="utf-8")
+def summary_markdown(results: dict[str, ReplayResult]) -> str:
+    """The README's short table: per home, multi's F1, the best baseline's and multi's leads."""
+    lines = [
+        "| home | multi | best baseline | multi − best baseline [95 %] | multi − ha_usage | multi − markov |",
+        "|---|---|---|---|---|---|",
+    ]
+    for name, r in results.items():
+        f1 = {m: v["f1"] for m, v in r.methods.items()}
+        other = max((m for m in f1 if m not in ("multi", "paper")), key=f1.__getitem__)
+        lines.append(
+            f"| [{name}](docs/eval/real/{name}.png) | {f1['multi']:.3f} | {other} {f1[other]:.3f} | "
+            f"{_lead(r, other)} | {_lead(r, 'ha_usage')} | {_lead(r, 'markov')} |"
+        )
+    return "\n".join(lines)
+
+
+def update_readme(markdown: str, path: Path = README) -> bool:
+    """Put ``markdown`` between the real markers of a file; False where it has none."""
+    text = path.read_text(encoding="utf-8")
     pattern = re.compile(re.escape(BEGIN) + ".*?" + re.escape(END), re.S)
     if not pattern.search(text):
         return False
-    README.write_text(pattern.sub(lambda _: f"{BEGIN}\n{markdown}\n{END}", text), encoding="utf-8")
+    path.write_text(pattern.sub(lambda _: f"{BEGIN}\n{markdown}\n{END}", text), encoding="utf-8")
     return True
 
 
@@ -98,7 +116,9 @@ def main() -> None:
     parser.add_argument("--homes", default=",".join(HOMES))
     parser.add_argument("--data", type=Path, default=DATA, help="the real-data folder")
     parser.add_argument("--out", type=Path, default=OUT)
-    parser.add_argument("--no-readme", action="store_true", help="leave the README's table alone")
+    parser.add_argument(
+        "--no-readme", action="store_true", help="leave the tables of docs/figures.md and README.md alone"
+    )
     args = parser.parse_args()
     names = [h.strip() for h in args.homes.split(",") if h.strip()]
     bad = [h for h in names if h not in HOMES]
@@ -124,8 +144,12 @@ def main() -> None:
     (args.out / "real.json").write_text(json.dumps(summary, indent=1) + "\n", encoding="utf-8")
     markdown = table_markdown(results, switches)
     print(markdown)
-    if not args.no_readme and not update_readme(markdown):
-        console.log("README has no real markers: table printed only")
+    if args.no_readme:
+        return
+    if not update_readme(markdown):
+        console.log("docs/figures.md has no real markers: table printed only")
+    if set(names) == set(HOMES) and not update_readme(summary_markdown(results), ROOT / "README.md"):
+        console.log("README.md has no real markers: its table left alone")
 
 
 if __name__ == "__main__":
