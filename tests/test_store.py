@@ -293,6 +293,25 @@ def test_bad_url_is_a_one_line_store_error(url: str, studio: Home) -> None:
     assert "Traceback" not in message
 
 
+def test_another_applications_database_is_refused_and_left_as_it_was(tmp_path: Path, studio: Home) -> None:
+    import sqlite3
+
+    path = tmp_path / "shop.sqlite"
+    with sqlite3.connect(path) as conn:
+        conn.executescript("CREATE TABLE orders (id INTEGER); CREATE TABLE invoices (id INTEGER);")
+        conn.execute("INSERT INTO orders VALUES (7)")
+    with pytest.raises(StoreError) as info:
+        Store.open(f"sqlite:///{path}", studio)
+    assert str(info.value) == (
+        f"database sqlite:///{path}: holds another application's tables (invoices, orders), "
+        "not homecog's; give homecog a database of its own"
+    )
+    with sqlite3.connect(path) as conn:
+        tables = {r[0] for r in conn.execute("SELECT name FROM sqlite_master WHERE type = 'table'")}
+        assert tables == {"orders", "invoices"}
+        assert conn.execute("SELECT id FROM orders").fetchall() == [(7,)]
+
+
 def test_server_test_databases_are_dropped() -> None:
     for kind in ("postgresql", "mariadb"):
         try:

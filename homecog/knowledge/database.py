@@ -11,7 +11,7 @@ import os
 from pathlib import Path
 from typing import Any
 
-from sqlalchemy import create_engine, event
+from sqlalchemy import create_engine, event, inspect
 from sqlalchemy.engine import Connection, Engine, make_url
 from sqlalchemy.exc import ArgumentError, DBAPIError, NoSuchModuleError
 
@@ -120,6 +120,7 @@ def migrate(engine: Engine) -> None:
     from alembic.config import Config
     from alembic.util.exc import CommandError
 
+    _check_own(engine)
     cfg = Config()
     cfg.set_main_option("script_location", str(Path(__file__).parent / "migrations"))
     try:
@@ -132,6 +133,23 @@ def migrate(engine: Engine) -> None:
             f"database {url}: a database of a schema this homecog does not know ({e}); "
             "use the homecog that made it, or a newer one"
         ) from None
+
+
+def _check_own(engine: Engine) -> None:
+    """Refuse a database that holds another application's tables and was never homecog's (no
+    ``alembic_version``): homecog would add its tables beside theirs."""
+    from homecog.knowledge.schema import Base
+
+    with engine.connect() as conn:
+        names = set(inspect(conn).get_table_names())
+    foreign = sorted(names - set(Base.metadata.tables))
+    if foreign and "alembic_version" not in names:
+        url = redact(engine.url.render_as_string(hide_password=False))
+        shown = ", ".join(foreign[:3]) + (f" and {len(foreign) - 3} more" if len(foreign) > 3 else "")
+        raise StoreError(
+            f"database {url}: holds another application's tables ({shown}), not homecog's; "
+            "give homecog a database of its own"
+        )
 
 
 # -- encoding the tree -------------------------------------------------------------------------
