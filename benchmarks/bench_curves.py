@@ -138,7 +138,7 @@ def main() -> None:
     parser.add_argument("--streams", default=",".join(STREAMS))
     parser.add_argument("--mit", type=Path, default=MIT, help="the MIT home-activity folder")
     parser.add_argument("--out", type=Path, default=OUT)
-    parser.add_argument("--no-readme", action="store_true", help="leave the README's table alone")
+    parser.add_argument("--no-readme", action="store_true", help="leave the table of docs/figures.md alone")
     args = parser.parse_args()
     names = [s.strip() for s in args.streams.split(",") if s.strip()]
     bad = [s for s in names if s not in STREAMS]
@@ -176,7 +176,7 @@ def main() -> None:
         )
     Console().print(table)
     if not args.no_readme and update_readme(table_markdown(summary)):
-        console.log("README.md: the learning curves' table updated")
+        console.log("docs/figures.md: the learning curves' table updated")
 
 
 if __name__ == "__main__":
