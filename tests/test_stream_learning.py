@@ -22,7 +22,8 @@ from homecog.home.codec import Space
 from homecog.home.recent import RecentPast
 from homecog.home.scenario_file import load_scenarios
 from homecog.knowledge.additive import AtomLogistic
-from homecog.knowledge.evidence import ServiceLearner, kt_share
+from homecog.knowledge.cuts import kt_share
+from homecog.knowledge.evidence import ServiceLearner
 from homecog.knowledge.pipeline import open_tree
 from homecog.knowledge.store import Store
 

@@ -1,5 +1,6 @@
-"""The arithmetic of a user's evidence: a cell's leave-one-out loss, the thresholds a person
-would say between readings, and the interval a learned answer holds over
+"""The arithmetic of a user's evidence: a cell's leave-one-out loss and its estimate of the share
+of wanted examples, the thresholds a person would say between readings, and the interval a
+learned answer holds over
 (:mod:`homecog.knowledge.evidence` uses them)."""
 
 from __future__ import annotations
@@ -23,6 +24,18 @@ def loo_loss(p: int, n: int) -> float:
     if n:
         out -= n * math.log((n - 0.5) / m)
     return out
+
+
+def kt_share(counts: Sequence[int] | None) -> float:
+    """A cell's estimate of the share of wanted examples, with half an example of each label
+    added (the Krichevsky–Trofimov estimator): ½ for a cell without examples.
+
+    >>> kt_share(None), kt_share([3, 0, 1]), kt_share([0, 1, 0])
+    (0.5, 0.875, 0.25)
+    """
+    if counts is None:
+        return 0.5
+    return (counts[0] + 0.5) / (counts[0] + counts[1] + 1)
 
 
 def round_cut(low: float, high: float) -> float:

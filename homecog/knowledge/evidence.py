@@ -44,23 +44,11 @@ import math
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 
-from homecog.knowledge.cuts import best_cut, loo_loss, widened
+from homecog.knowledge.cuts import best_cut, kt_share, loo_loss, widened
 from homecog.knowledge.keys import Atom, Decision, Key, Recent, cell_of, keys_of, sign_of
 
 #: the fewest examples a cell of a key with fewer atoms must hold to answer for an empty one
 BACKOFF = 5
-
-
-def kt_share(counts: Sequence[int] | None) -> float:
-    """A cell's estimate of the share of wanted examples, with half an example of each label
-    added (the Krichevsky–Trofimov estimator): ½ for a cell without examples.
-
-    >>> kt_share(None), kt_share([3, 0, 1]), kt_share([0, 1, 0])
-    (0.5, 0.875, 0.25)
-    """
-    if counts is None:
-        return 0.5
-    return (counts[0] + 0.5) / (counts[0] + counts[1] + 1)
 
 
 @dataclass(eq=False)
@@ -111,6 +99,7 @@ class ServiceLearner:
         # examples before it), and the keys' posterior weights made from it (None: made again)
         self._preq: list[float] = []
         self._posterior: dict[bool, list[tuple[int, float]]] | None = None
+        self._ranking: dict[bool, list[int]] | None = None  # the keys by weight (see _ranked)
         self._index_keys()
         self._best: int | None = None  # the best key's position, and every key's loss rounded
         self._rounded: list[float] = []
@@ -218,7 +207,7 @@ class ServiceLearner:
         if self.streaming:
             self._score(atoms, wanted, keys, weight)
         self._count(atoms, wanted, keys, weight)
-        self._best = self._backoff = self._posterior = None
+        self._best = self._backoff = self._posterior = self._ranking = None
         n = len(self._examples)
         if n >= self._next_cut:
             self._next_cut = max(n + 8, 2 * n)
@@ -350,20 +339,39 @@ class ServiceLearner:
         never saw this moment does not pull the answer to ½; where no key knows it (no
         example yet), ½. The key of the most weight among those awake and its cell explain it."""
         tables, cell_of, preq = self._tables, self._cell, self._preq
-        awake = []
-        for i in self._candidates(snapshot):
+        ranked = self._ranked(snapshot)
+        first, explain, total, share = 0.0, None, 0.0, 0.0
+        for k, i in enumerate(ranked):
+            # the keys left weigh at most exp(first − their loss) each: once all of them together
+            # could not move the answer by 10⁻⁹, they are not read
+            if explain is not None and (len(ranked) - k) * math.exp(first - preq[i] + 1e-6) < 1e-9 * total:
+                break
             counts = tables[i].get(cell_of[i](atoms))
-            if counts is not None:
-                awake.append((preq[i], i, counts))
-        if not awake:
+            if counts is None:
+                continue
+            if explain is None:
+                first, explain = preq[i], (i, counts)
+            w = math.exp(first - preq[i])
+            total += w
+            share += w * kt_share(counts)
+        if explain is None:
             return Decision(sign_of(0.5, threshold, 0), (), (), 0, 0, threshold)
-        least = min(awake)[0]
-        weights = [math.exp(least - loss) for loss, _, _ in awake]
-        share = sum(w * kt_share(counts) for w, (_, _, counts) in zip(weights, awake, strict=True))
-        share /= sum(weights)
-        _, i, (p, n, last) = min(awake, key=lambda lic: (round(lic[0], 6), self._prior_rank[lic[1]]))
+        i, (p, n, last) = explain
+        share /= total
         sign = sign_of(share, threshold, last)
         return Decision(sign, self.keys[i], cell_of[i](atoms), p, n, threshold, share)
+
+    def _ranked(self, snapshot: bool) -> list[int]:
+        """The keys a stream's answer weighs, the most weight first (least prequential loss; ties:
+        the prior's rank, then the first)."""
+        if self._ranking is None:
+            self._ranking = {}
+        if snapshot not in self._ranking:
+            rank = self._prior_rank
+            self._ranking[snapshot] = sorted(
+                self._candidates(snapshot), key=lambda i: (round(self._preq[i], 6), rank[i], i)
+            )
+        return self._ranking[snapshot]
 
     def backoff(self) -> list[Key]:
         """The best key, then the best of its keys with one atom less, and so on to the empty key
