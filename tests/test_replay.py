@@ -96,3 +96,17 @@ def test_replay_rows_of_the_simple_learners_alone():
         assert series[-1][3] == pytest.approx(result.methods[name]["f1"], abs=1e-6)
         # a household's wishes repeat: over the whole stream it does better than over its first half
         assert series[-1][3] > series[19][3] > 0
+
+
+def test_a_slow_stream_reports_progress_by_the_clock(monkeypatch):
+    """Every 1,000 events, and on a stream slow enough (a large home) every PROGRESS_SECONDS."""
+    from homecog.evaluation import replay as replay_module
+
+    home = load_home(STUDIO)
+    rows = random_scenarios(home, 30, seed=4, truth=load_home(KIM))
+    said: list[str] = []
+    replay_module.replay_rows(home, rows, methods=["frequency"], progress=said.append)
+    assert said == []  # 30 quick events: nothing to say
+    monkeypatch.setattr(replay_module, "PROGRESS_SECONDS", 0.0)
+    replay_module.replay_rows(home, rows, methods=["frequency"], progress=said.append)
+    assert said == [f"{i:,} of 30 events" for i in range(1, 31)]

@@ -44,6 +44,8 @@ from homecog.learning.size import check_size
 
 Progress = Callable[[str], None]
 USER = "household"
+#: progress is reported every 1,000 events, and at least this often on a slow stream (a large home)
+PROGRESS_SECONDS = 10.0
 
 
 @dataclass
@@ -202,6 +204,7 @@ def replay_rows(
     every = max(1, len(rows) // points)
     tallies = {name: _Tally() for name in started}
     past = RecentPast(home)
+    said = time.perf_counter()  # when progress was last reported
     with _predictions_file(predictions) as sink:
         for i, row in enumerate(rows, start=1):
             point = replace(row.point, recent=past.at(row.timestamp, row.context))
@@ -212,8 +215,9 @@ def replay_rows(
             past.learn(row.timestamp, row.context, row.truth)
             if sink is not None:
                 sink.write(prediction_line(i, row, answers, home.service_names))
-            if progress and i % 1000 == 0:
+            if progress and (i % 1000 == 0 or time.perf_counter() - said >= PROGRESS_SECONDS):
                 progress(f"{i:,} of {len(rows):,} events")
+                said = time.perf_counter()
     return ReplayResult(
         events=len(rows),
         methods={name: t.figures() for name, t in tallies.items()},
