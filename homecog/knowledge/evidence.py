@@ -96,10 +96,9 @@ class ServiceLearner:
         self._tables: list[dict[tuple[Atom, ...], list[int]]] = []
         self._loo: list[float] = []
         # per key, in a stream: its prequential log loss (each example predicted by the cell's
-        # examples before it), and the keys' posterior weights made from it (None: made again)
+        # examples before it), and the keys ranked by it (None: made again; see _ranked)
         self._preq: list[float] = []
-        self._posterior: dict[bool, list[tuple[int, float]]] | None = None
-        self._ranking: dict[bool, list[int]] | None = None  # the keys by weight (see _ranked)
+        self._ranking: dict[bool, list[int]] | None = None
         self._index_keys()
         self._best: int | None = None  # the best key's position, and every key's loss rounded
         self._rounded: list[float] = []
@@ -142,7 +141,7 @@ class ServiceLearner:
         """Whether the learner learns a stream: its examples know the recent past and each says
         whether the service was wanted (none partial). A stream of whole examples — a
         household's event log — stands on its own: keys are judged by how each predicted every
-        example before it was counted, and averaged by that (:meth:`posterior`). Partial
+        example before it was counted, and averaged by that (:meth:`_mixed`). Partial
         examples — a person's hands, mostly "wanted" — only refine the shared knowledge, by the
         leave-one-out choice of a key that holds the shared answer."""
         return self._recent_on and not self._partial
@@ -207,7 +206,7 @@ class ServiceLearner:
         if self.streaming:
             self._score(atoms, wanted, keys, weight)
         self._count(atoms, wanted, keys, weight)
-        self._best = self._backoff = self._posterior = self._ranking = None
+        self._best = self._backoff = self._ranking = None
         n = len(self._examples)
         if n >= self._next_cut:
             self._next_cut = max(n + 8, 2 * n)
@@ -315,20 +314,6 @@ class ServiceLearner:
         if not snapshot:
             return range(len(self.keys))
         return [i for i in range(len(self.keys)) if i not in self._recent_keys]
-
-    def posterior(self, *, snapshot: bool = False) -> list[tuple[int, float]]:
-        """In a stream: the keys' weights, each ``exp(−prequential loss)`` normalized (Bayes'
-        rule over the keys, each a model of the stream), those below 10⁻⁶ left out; for a
-        ``snapshot`` the keys of the context alone."""
-        if self._posterior is None:
-            self._posterior = {}
-        if snapshot not in self._posterior:
-            candidates = self._candidates(snapshot)
-            least = min(self._preq[i] for i in candidates)
-            weights = [(i, math.exp(least - self._preq[i])) for i in candidates]
-            total = sum(w for _, w in weights)
-            self._posterior[snapshot] = [(i, w / total) for i, w in weights if w / total >= 1e-6]
-        return self._posterior[snapshot]
 
     def _mixed(self, atoms: tuple[Atom, ...], threshold: float, *, snapshot: bool) -> Decision:
         """In a stream: the probability that the service is wanted, averaged over the keys by
