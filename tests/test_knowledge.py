@@ -256,7 +256,8 @@ def test_corrections_are_per_user_and_take_effect_at_once():
 
 def test_a_correction_generalizes_where_the_same_features_matter():
     """Ann reads in bed by the desk lamp: taught once in the evening, the robot lights it for her
-    at other times too, but not when she sleeps or eats in bed."""
+    near then; taught again in the afternoon, between the two too, but not when she sleeps or
+    eats in bed."""
     t = pickle.loads(pickle.dumps(tree("paper")))
     evening = paper_context(
         {
@@ -271,11 +272,16 @@ def test_a_correction_generalizes_where_the_same_features_matter():
     )
     wanted = [*t.predict_one(evening), "TurnOnLamp"]
     t.correct_one(evening, wanted, user="ann")
+    later = {**evening, "time": "20:45", "ceiling_light": "off"}
     afternoon = {**evening, "time": "15:00", "illumination": 50, "ceiling_light": "off"}
-    assert "TurnOnLamp" in t.predict_one(afternoon, user="ann")
-    assert "TurnOnLamp" not in t.predict_one(afternoon, user="bob")
-    assert "TurnOnLamp" not in t.predict_one({**afternoon, "behavior": "sleep"}, user="ann")
-    assert "TurnOnLamp" not in t.predict_one({**afternoon, "behavior": "eat"}, user="ann")
+    assert "TurnOnLamp" in t.predict_one(later, user="ann")  # near where it was made
+    assert "TurnOnLamp" not in t.predict_one(afternoon, user="ann")  # not yet that far
+    t.correct_one(afternoon, [*t.predict_one(afternoon, user="ann"), "TurnOnLamp"], user="ann")
+    between = {**evening, "time": "17:30", "illumination": 150, "ceiling_light": "off"}
+    assert "TurnOnLamp" in t.predict_one(between, user="ann")  # two agree: it widens between them
+    assert "TurnOnLamp" not in t.predict_one(between, user="bob")
+    assert "TurnOnLamp" not in t.predict_one({**between, "behavior": "sleep"}, user="ann")
+    assert "TurnOnLamp" not in t.predict_one({**between, "behavior": "eat"}, user="ann")
 
 
 def test_corrections_are_counted_one_odd_event_does_not_overturn_them():

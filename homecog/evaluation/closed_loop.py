@@ -21,7 +21,7 @@ counts are the household's own, not the robot's bookkeeping.
 from __future__ import annotations
 
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import asdict, dataclass, field
 from typing import Any
 
@@ -30,6 +30,7 @@ from homecog.context.simulated import DEFAULT_START, SimulatedHome
 from homecog.home.codec import Space
 from homecog.home.household import Household
 from homecog.home.model import Home
+from homecog.home.states import state_word
 from homecog.knowledge.ihdr import IHDRTree
 from homecog.knowledge.store import Store
 from homecog.robot.holds import situation
@@ -64,6 +65,7 @@ class SimulatedHousehold:
     today: Day = field(default_factory=lambda: Day(1))
 
     def __post_init__(self) -> None:
+        self.switches: list[dict[str, object]] = []  # every switch: day, time, device, state, by
         self._space = Space(self.truth)
         self._n = len(self.truth.features)
         self._since: dict[str, float] = {}  # device -> not as wanted since
@@ -118,16 +120,24 @@ class SimulatedHousehold:
         finally:
             self._mine = None
         self.today.household_switches += 1
+        self._record(device, on, "household")
         self._ours[device] = (situation(self.truth, context), on)
         robot = self._robot.pop(device, None)
         if robot is not None and robot[0] != on and self.source.clock() - robot[1] <= self.undo_window:
             self.today.reversed += 1
+
+    def _record(self, device: str, on: bool, by: str) -> None:
+        time = self.source.now.strftime("%H:%M:%S")
+        self.switches.append(
+            {"day": self.today.day, "time": time, "device": device, "state": state_word(on), "by": by}
+        )
 
     def seen(self, change: DeviceChange) -> None:
         """A change in the home: ours, or else the robot's (nobody else lives here)."""
         if self._mine == (change.device, change.on):
             return
         self.today.robot_switches += 1
+        self._record(change.device, change.on, "robot")
         self._robot[change.device] = (change.on, change.at)
         ours = self._ours.get(change.device)
         if change.before is not None and ours is not None and ours[0] == situation(self.truth, change.before):
@@ -175,21 +185,23 @@ def closed_loop(
         "home": home.name,
         "truth": truth.name,
         "days": days_out,
-        "summary": summary(days_out),
+        "summary": summary(days_out, people.switches),
+        "switches": people.switches,
         "robot": runtime.status(),
         "experiences": store.experience_count(),
         "seconds": round(time.perf_counter() - began, 2),
     }
 
 
-def summary(days: list[dict[str, Any]]) -> dict[str, float | None]:
+def summary(days: list[dict[str, Any]], switches: Sequence[Mapping[str, Any]] = ()) -> dict[str, Any]:
     """The figures of a closed loop: the household's switches a day over the last three days
-    as a share of day 1's, the share of the robot's switches undone over them, fights in all.
+    as a share of day 1's, the share of the robot's switches undone over them, fights in all,
+    and the robot's switches of one device within an hour at most (:func:`busiest_hour`).
 
     >>> d = [{"household_switches": 20, "robot_switches": 5, "reversed": 2, "fights": 0}] + [
     ...     {"household_switches": 1, "robot_switches": 50, "reversed": 0, "fights": 0}] * 3
     >>> summary(d)
-    {'last3_household_share': 0.05, 'last3_undone_share': 0.0, 'fights': 0}
+    {'last3_household_share': 0.05, 'last3_undone_share': 0.0, 'fights': 0, 'robot_most_in_an_hour': 0}
     """
     last = days[-3:]
     first = days[0]["household_switches"]
@@ -199,4 +211,31 @@ def summary(days: list[dict[str, Any]]) -> dict[str, float | None]:
         "last3_household_share": round(per_day / first, 4) if first else None,
         "last3_undone_share": round(sum(d["reversed"] for d in last) / robot, 4) if robot else 0.0,
         "fights": sum(d["fights"] for d in days),
+        "robot_most_in_an_hour": busiest_hour(switches),
     }
+
+
+def busiest_hour(switches: Sequence[Mapping[str, Any]], by: str = "robot") -> int:
+    """The most switches of one device by ``by`` within any 60 minutes.
+
+    >>> times = ("06:04:00", "06:09:00", "06:18:00")
+    >>> s = [{"day": 1, "time": t, "device": "ac", "by": "robot"} for t in times]
+    >>> busiest_hour(s), busiest_hour(s[:2] + [{**s[2], "time": "07:05:00"}])
+    (3, 2)
+    """
+    times: dict[str, list[float]] = {}
+    for s in switches:
+        if s["by"] == by:
+            h, m, sec = (int(x) for x in str(s["time"]).split(":"))
+            times.setdefault(str(s["device"]), []).append(
+                (int(s["day"]) - 1) * 86400 + h * 3600 + m * 60 + sec
+            )
+    most = 0
+    for ts in times.values():
+        ts.sort()
+        start = 0
+        for end, t in enumerate(ts):
+            while t - ts[start] >= 3600:
+                start += 1
+            most = max(most, end - start + 1)
+    return most

@@ -20,8 +20,10 @@ homecog.errors.HomeFileError: den.yaml: context.time.bins: gap between bins 'nig
 from __future__ import annotations
 
 import itertools
+import math
 
 from homecog.home.model import Feature, format_number
+from homecog.home.pacing import default_deadband
 from homecog.home.shapes import ShapeChecks, kind_of
 
 _KINDS = ("clock", "numeric", "categorical")
@@ -37,7 +39,7 @@ class ContextSection(ShapeChecks):
     def feature(self, name: str, spec: object, path: str) -> Feature:
         self.name(name, path, "feature")
         spec = self.mapping(spec, path)
-        self.keys(spec, path, ("kind", "unit", "bins", "values", "description"), ("kind",))
+        self.keys(spec, path, ("kind", "unit", "bins", "values", "description", "deadband"), ("kind",))
         kind = spec["kind"]
         if kind not in _KINDS:
             raise self.fail(f"{path}.kind", f"unknown kind {kind!r}; expected one of {', '.join(_KINDS)}")
@@ -48,8 +50,15 @@ class ContextSection(ShapeChecks):
             return Feature(
                 name=name, kind="categorical", values=self.categorical_values(spec, path), unit=unit
             )
+        if "deadband" in spec and kind != "numeric":
+            raise self.fail(f"{path}.deadband", f"a deadband is for numeric features, not {kind} ones")
         names, bins = self.bins(spec, path, kind)
-        return Feature(name=name, kind=kind, values=names, bins=bins, unit=unit)
+        deadband = default_deadband(unit) if kind == "numeric" else 0.0
+        if "deadband" in spec:
+            deadband = self.number(spec["deadband"], f"{path}.deadband")
+            if not 0 <= deadband < math.inf:
+                raise self.fail(f"{path}.deadband", f"{format_number(deadband)}; expected 0 or more")
+        return Feature(name=name, kind=kind, values=names, bins=bins, unit=unit, deadband=deadband)
 
     def categorical_values(self, spec: dict[str, object], path: str) -> tuple[str, ...]:
         """The values of a categorical feature: names, each once."""

@@ -80,6 +80,7 @@ class Feature:
     values: tuple[str, ...]
     bins: tuple[tuple[float, float], ...] | None = None
     unit: str | None = None
+    deadband: float = 0.0  # how far past a bin's edge a reading must be to change bin for the robot
 
     @property
     def radix(self) -> int:
@@ -171,6 +172,8 @@ class Device:
     name: str
     room: str | None = None
     iot: bool = True
+    min_on: float = 0.0  # seconds the robot leaves it on once switched on (homecog.home.pacing)
+    min_off: float = 0.0  # ... and off once switched off
 
 
 @dataclass(frozen=True)

@@ -204,6 +204,13 @@ class ShapeChecks:
             raise self.fail(path, f"expected a number, got {value!r}")
         return float(value)
 
+    def minutes(self, value: object, path: str) -> float:
+        """A time in minutes, 0 to a day."""
+        x = self.number(value, path)
+        if not 0 <= x <= 1440:
+            raise self.fail(path, f"{format_number(x)} minutes; expected 0 to 1440")
+        return x
+
     def hours(self, value: object, path: str) -> float:
         if isinstance(value, str) and ":" in value:
             try:

@@ -35,6 +35,7 @@ from homecog.home.household import parse_household
 from homecog.home.layout import Layout, parse_layout
 from homecog.home.log_section import parse_log
 from homecog.home.model import Device, Feature, Home, Rewards, RewardWeights, Service, format_number
+from homecog.home.pacing import default_minutes
 from homecog.home.routine import parse_routine
 from homecog.home.rule_sections import RuleSections
 from homecog.home.shapes import parse_device_state
@@ -141,12 +142,16 @@ class HomeValidator(ContextSection):
             path = f"devices.{name}"
             self.name(name, path, "device")
             spec = self.mapping(spec, path, allow_empty=True)
-            self.keys(spec, path, ("room", "iot", "place", "description"))
+            self.keys(spec, path, ("room", "iot", "place", "description", "min_on", "min_off"))
             iot = parse_device_state(spec.get("iot", True))
             if iot is None:
                 raise self.fail(f"{path}.iot", f"expected true or false, got {spec['iot']!r}")
             room = spec.get("room")
-            out.append(Device(name=name, room=None if room is None else str(room), iot=iot))
+            least = {
+                k: 60 * (self.minutes(spec[k], f"{path}.{k}") if k in spec else default_minutes(name))
+                for k in ("min_on", "min_off")
+            }
+            out.append(Device(name=name, room=None if room is None else str(room), iot=iot, **least))
         return tuple(out)
 
     def services(self, section: object, devices: tuple[Device, ...]) -> tuple[Service, ...]:

@@ -118,8 +118,17 @@ class UserLayers:
             if f.bins
         }
         # per service, the (dimension, code) it sets: it changes something where one differs
+        self._clock = frozenset(j for j, f in enumerate(home.features) if f.kind == "clock")
         index = space.index
         self._effects = [tuple((index[d], int(on)) for d, on in s.sets) for s in home.services]
+        # per service of several devices (a scene): the services whose effects it does too
+        self._covers = {
+            a: frozenset(
+                b for b, other in enumerate(self._effects) if b != a and other and set(other) <= set(effects)
+            )
+            for a, effects in enumerate(self._effects)
+            if len(effects) > 1
+        }
         self._examples: dict[str, list[Example]] = {}
         self._learners: dict[str, dict[int, ServiceLearner]] = {}
         self._made_at: dict[str, int] = {}
@@ -139,6 +148,14 @@ class UserLayers:
         """Whether service ``a`` would change anything at these codes (interactions always do)."""
         effects = self._effects[a]
         return not effects or any(codes[j] != code for j, code in effects)
+
+    def covered(self, want: frozenset[int]) -> frozenset[int]:
+        """The services a wanted scene does the work of: a correction wanting the scene says
+        nothing of them (their devices are switched, as part of the scene)."""
+        out: frozenset[int] = frozenset()
+        for a in want:
+            out |= self._covers.get(a, frozenset())
+        return out.difference(a for a in want if a in self._covers)
 
     def examples(self, user: str) -> list[Example]:
         return self._examples.get(user, [])
@@ -189,8 +206,9 @@ class UserLayers:
             shared, answers = last[1], last[2]
         else:
             shared, answers = self._shared(example.point), {}
+        covered = self.covered(example.want)
         for a in range(len(self._effects)):
-            if not self.changes(a, codes) or not example.speaks_of(a):
+            if not self.changes(a, codes) or not example.speaks_of(a) or a in covered:
                 continue
             learner = learners.get(a)
             if learner is None:
@@ -200,6 +218,7 @@ class UserLayers:
                     self.order,
                     self._relevant(a),
                     n_recent=self._n_recent,
+                    clock=self._clock,
                 )
             wanted = a in example.want
             atoms = self.recent_atoms(a, recent)

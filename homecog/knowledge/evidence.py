@@ -46,9 +46,12 @@ from dataclasses import dataclass
 
 from homecog.knowledge.cuts import best_cut, kt_share, loo_loss, widened
 from homecog.knowledge.keys import Atom, Decision, Key, Recent, cell_of, keys_of, sign_of
+from homecog.knowledge.locality import Hull
 
 #: the fewest examples a cell of a key with fewer atoms must hold to answer for an empty one
 BACKOFF = 5
+#: corrections' worth that must agree in a cell before its answer holds beyond their hull
+WIDEN = 10
 
 
 @dataclass(eq=False)
@@ -70,6 +73,8 @@ class ServiceLearner:
     n_recent
         How many of the atoms, just before the shared answer, are the recent past's; their keys
         join at the first example that knows it.
+    clock
+        The positions of clock features among the numeric ones (their hull is an arc of the day).
     """
 
     n_atoms: int
@@ -77,6 +82,7 @@ class ServiceLearner:
     order: int = 2
     prior: frozenset[int] = frozenset()
     n_recent: int = 0
+    clock: frozenset[int] = frozenset()
 
     def __post_init__(self) -> None:
         self._unknown = ("unknown",) * self.n_recent
@@ -103,6 +109,7 @@ class ServiceLearner:
         self._best: int | None = None  # the best key's position, and every key's loss rounded
         self._rounded: list[float] = []
         self._backoff: list[Key] | None = None
+        self._hulls: dict[tuple[int, tuple[Atom, ...], bool], Hull] = {}
         self._next_cut = 4
 
     def _index_keys(self) -> None:
@@ -113,7 +120,10 @@ class ServiceLearner:
         self._cell = [cell_of(k) for k in self.keys]
         self._index = {k: i for i, k in enumerate(self.keys)}
         # per key, its keys with one atom less
-        self._subs = [[self._index[k[:m] + k[m + 1 :]] for m in range(len(k))] for k in self.keys]
+        index = self._index
+        self._subs = [
+            [index[s] for m in range(len(k)) if (s := k[:m] + k[m + 1 :]) in index] for k in self.keys
+        ]
         shared_atom = self.n_atoms - 1
         self._shared_keys = [i for i, k in enumerate(self.keys) if shared_atom in k]
         recents = range(self.n_atoms - 1 - self.n_recent, shared_atom)
@@ -207,6 +217,7 @@ class ServiceLearner:
             self._score(atoms, wanted, keys, weight)
         self._count(atoms, wanted, keys, weight)
         self._best = self._backoff = self._ranking = None
+        self._hulls = {}
         n = len(self._examples)
         if n >= self._next_cut:
             self._next_cut = max(n + 8, 2 * n)
@@ -252,6 +263,7 @@ class ServiceLearner:
                 moved.append(j)
         if not moved:
             return
+        self._hulls = {}
         keys = [i for i, k in enumerate(self.keys) if any(j in k for j in moved)]
         shared_keys = [i for i in keys if i in set(self._shared_keys)]
         for e, (readings, codes, wanted, shared, _, recent) in enumerate(self._examples):
@@ -268,7 +280,7 @@ class ServiceLearner:
         if self._best is None:
             losses = self._preq if self.streaming else self._loo
             rounded = self._rounded = [round(loss, 6) for loss in losses]
-            candidates = self._partial_keys if self._partial else range(len(self.keys))
+            candidates = range(len(self.keys)) if self.streaming else self._partial_keys
             least = min(rounded[i] for i in candidates)
             tied = (i for i in candidates if rounded[i] == least)
             self._best = min(tied, key=self._prior_rank.__getitem__)
@@ -306,7 +318,35 @@ class ServiceLearner:
             return Decision(0, chain[0], (), 0, 0, threshold)
         p, n, last = counts
         share = p / (p + n)
-        return Decision(sign_of(share, threshold, last), key, cell, p, n, threshold, share)
+        sign = sign_of(share, threshold, last)
+        departs = (sign > 0) != shared and (p if sign > 0 else n) < WIDEN
+        if departs and not self._near(self._index[key], cell, sign > 0, readings, atoms):
+            return Decision(0, key, cell, p, n, threshold, share)  # beyond what it has shown
+        return Decision(sign, key, cell, p, n, threshold, share)
+
+    def _near(
+        self,
+        i: int,
+        cell: tuple[Atom, ...],
+        wanted: bool,
+        readings: Sequence[float | None],
+        atoms: tuple[Atom, ...],
+    ) -> bool:
+        """Whether a context is within the hull of the examples of key ``i``'s ``cell`` that
+        say ``wanted`` (:mod:`homecog.knowledge.locality`): an answer that departs from the
+        shared knowledge holds only there."""
+        n_context = self.n_atoms - 1 - self.n_recent
+        hull = self._hulls.get((i, cell, wanted))
+        if hull is None:
+            of_cell = self._cell[i]
+            members = (
+                (self._examples[e][0], atoms_e[:n_context])
+                for e, atoms_e in enumerate(self._atoms)
+                if self._examples[e][2] == wanted and of_cell(atoms_e) == cell
+            )
+            numeric = frozenset(self.numeric)
+            hull = self._hulls[(i, cell, wanted)] = Hull.of(members, clock=self.clock, numeric=numeric)
+        return hull.holds(readings, atoms[:n_context])
 
     def _candidates(self, snapshot: bool) -> range | list[int]:
         """The keys a stream's answer weighs: every key, or for a ``snapshot`` (a context
@@ -364,7 +404,7 @@ class ServiceLearner:
         if self._backoff is None:
             i = self._index[self.best_key()]
             chain = [self.keys[i]]
-            subs = self._shared_subs if self._partial else self._subs
+            subs = self._subs if self.streaming else self._shared_subs
             while subs[i]:
                 i = min(subs[i], key=self._rank)
                 chain.append(self.keys[i])

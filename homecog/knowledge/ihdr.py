@@ -257,6 +257,14 @@ class IHDRTree(ClusterUpdates, TreeSearch):
         about = None if concerns is None else frozenset(self._service_positions(concerns))
         if about is not None and not about.issuperset(wanted):
             raise ContextError("a correction of some services wants only services it concerns")
+        both = self._layers.covered(frozenset(wanted)).intersection(wanted)
+        if both:
+            names = self.home.service_names
+            scene = next(a for a in wanted if both & self._layers.covered(frozenset({a})))
+            raise ContextError(
+                f"{names[scene]} does the work of {names[min(both)]}: a correction names the scene "
+                "or its device's own service, not both"
+            )
         predicted = self._service_positions(self.predict_one(p, user))
         added = [a for a in wanted if a not in predicted]
         rejected = [a for a in predicted if a not in wanted and (about is None or a in about)]

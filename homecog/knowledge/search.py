@@ -91,15 +91,20 @@ class TreeSearch:
                 return cluster
         return None
 
-    def _search(self, p: Point, user: str | None) -> tuple[list[tuple[Node, Cluster]], bool]:
+    def _search(
+        self, p: Point, user: str | None
+    ) -> tuple[list[tuple[Node, Cluster]], bool, dict[int, list[str]]]:
         """Algorithm 3: the service nodes whose clusters respond, and whether Idle responded;
-        then the user's evidence over them. A service that would change nothing is left out."""
+        scenes in the place of the services they do the work of (and per scene those
+        services); then the user's evidence over that answer — the services the robot would
+        propose, scenes included. A service that would change nothing is left out."""
         hits, idle = self._shared_search_missing(p) if p.missing else self._shared_search(p)
         changes = self._layers.changes
         if any(not changes(node.service, p.codes) for node, _ in hits):
             hits = [(node, c) for node, c in hits if changes(node.service, p.codes)]
+        hits, replaced = self._with_scenes(hits, p)
         if user is None or not self._layers.n_examples(user):
-            return hits, idle
+            return hits, idle, replaced
         chosen = {node.service: (node, c) for node, c in hits}
         shared = frozenset(chosen)
         for a, decision in self._layers.decisions(user, p, shared):
@@ -108,9 +113,12 @@ class TreeSearch:
                 chosen[a] = (self._services[a], Cluster(id=-1, conditions={}, user=user, evidence=decision))
             else:
                 chosen.pop(a, None)
-        if len(chosen) == len(hits) and all(chosen.get(n.service, (n, None))[1] is c for n, c in hits):
-            return hits, idle
-        return self._ordered([chosen[a] for a in sorted(chosen)]), idle
+                replaced.pop(a, None)
+        for a in self._layers.covered(frozenset(chosen)):
+            chosen.pop(a, None)  # a scene taken does its work
+        if chosen.keys() == {n.service for n, _ in hits}:  # the same services: in the same order
+            return [chosen[n.service] for n, _ in hits], idle, replaced
+        return self._ordered([chosen[a] for a in sorted(chosen)]), idle, replaced
 
     def _shared_search_missing(self, p: Point) -> tuple[list[tuple[Node, Cluster]], bool]:
         """The shared answer where readings are missing: the services the tree proposes
@@ -273,8 +281,7 @@ class TreeSearch:
         """Services for a context, ordered by priority, with why (Algorithm 3); a scene says
         which services it does the work of."""
         p = self.point(x)
-        hits, idle = self._search(p, user)
-        hits, replaced = self._with_scenes(hits, p)
+        hits, idle, replaced = self._search(p, user)
         explanations = []
         for node, cluster in hits:
             if node.service in replaced:
@@ -303,7 +310,7 @@ class TreeSearch:
     def predict_one(self, x: Mapping[str, object] | Point, user: str | None = None) -> list[str]:
         """The services the user needs in context ``x``, in priority order."""
         p = self.point(x)
-        return [node.name for node, _ in self._with_scenes(self._search(p, user)[0], p)[0]]
+        return [node.name for node, _ in self._search(p, user)[0]]
 
     def describe(self, cluster: Cluster) -> dict[str, str]:
         """A cluster's conditions as text, per related dimension.

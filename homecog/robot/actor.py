@@ -25,6 +25,7 @@ from homecog.planning.state import device_states, observed_state
 from homecog.robot.attribution import Attribution
 from homecog.robot.holds import Holds
 from homecog.robot.journal import Journal, RobotAction
+from homecog.robot.pacing import Pacing
 from homecog.robot.settling import Settling
 from homecog.simulation.bodies import make_body
 
@@ -43,6 +44,7 @@ class Actor:
         holds: Holds,
         journal: Journal,
         body: str | None,
+        pacing: Pacing | None = None,
     ) -> None:
         self.home = home
         self.source = source
@@ -57,6 +59,8 @@ class Actor:
         self.body = make_body(body, home, switch=self.switch, domain=self.domain) if body else None
         self.acted: Acting | None = None
         self.skipped_held = 0  # services left out because a person holds one of their devices
+        self.pacing = pacing or Pacing(home)  # each device's minimum time between switches
+        self.skipped_resting = 0  # services left out: a device of theirs switched too lately
         self.settling = Settling(home)  # its own recent switches: not switched back at once
         self.skipped_settling = 0  # services left out: they would switch back the robot's own
         self._sent: dict[str, dict[str, str]] = {}
@@ -112,6 +116,9 @@ class Actor:
                     continue
                 if pending and settling.intersection(d for d, on in sets if devices[d] != on):
                     self.skipped_settling += 1
+                    continue
+                if pending and any(self.pacing.resting(d, at=at) for d, on in sets if devices[d] != on):
+                    self.skipped_resting += 1
                     continue
                 if pending and reachable and self._sent.get(name) != now:
                     if one_switch and switching:

@@ -44,6 +44,7 @@ from homecog.robot.guidance import QUIET_SITUATION, Guidance
 from homecog.robot.holds import Holds, situation
 from homecog.robot.journal import Journal
 from homecog.robot.moments import Moments
+from homecog.robot.pacing import Pacing
 from homecog.robot.plans import plan_request
 
 log = logging.getLogger("homecog.robot")
@@ -80,6 +81,7 @@ class Runtime:
         self.bus = EventBus()
         self.attribution = Attribution()
         self.holds = Holds(self.home, hold=self.household.hold)
+        self.pacing = Pacing(self.home)
         self.journal = Journal()
         self.guidance = Guidance(self.home, self.household, self.journal, self._learn)
         body = self.robot if isinstance(self.source, SimulatedHome) and self.home.layout is not None else None
@@ -90,6 +92,7 @@ class Runtime:
             holds=self.holds,
             journal=self.journal,
             body=body,
+            pacing=self.pacing,
         )
         self.household_switches = 0  # device changes by people (and automations) seen
         self._situation: tuple[float, dict[str, str] | None] = (0.0, None)  # since, latest context
@@ -210,7 +213,8 @@ class Runtime:
         self._follow_situation(now, user)
         done = None
         for _ in range(len(self.home.devices) + 1):
-            point = replace(self.space.point(now), recent=self.moments.recent(now))
+            seen = self.pacing.steady(now)  # a reading at a bin's edge does not flap the bin
+            point = replace(self.space.point(seen), recent=self.moments.recent(now))
             with self.lock:
                 proposed = self.tree.predict_one(point, user=user)
             self._decided(now, proposed, user)
@@ -321,6 +325,7 @@ class Runtime:
 
     def _changed(self, change: DeviceChange) -> None:
         """A device changed in the home: whose, and what it teaches (on the source's thread)."""
+        self.pacing.switched(change.device, change.on, at=change.at)
         who = self.attribution.whose(change)
         if who in ("robot", "manual"):
             return
