@@ -26,7 +26,7 @@ becomes a cut at 23.
 Thresholds are chosen again each time the evidence has doubled, and the examples they move
 recounted.
 
->>> learner = ServiceLearner(n_atoms=2, numeric={0: (25.0, 30.0)}, order=1)
+>>> learner = ServiceLearner(n_atoms=2, numeric={0: (25.0, 30.0)}, order=2)
 >>> for t, y in [(20.0, False), (22.0, False), (23.5, True), (24.0, True), (26.0, True), (21.0, False)]:
 ...     learner.add([t, 0], [None, 0], y, shared=False)
 >>> learner.cuts[0]
