@@ -26,13 +26,13 @@ from servers import (
     fresh_database,
     varied_want,
 )
-from sqlalchemy import func, select
+from sqlalchemy import func, insert, select, update
 
 from homecog.errors import ContextError, NameProblemError, StoreError
 from homecog.home import Home, load_home_text
 from homecog.knowledge.ihdr import IHDRTree
 from homecog.knowledge.pipeline import build
-from homecog.knowledge.schema import ExperienceRow, UserRow
+from homecog.knowledge.schema import ExperienceRow, HomeRow, UserRow
 from homecog.knowledge.store import Store
 
 STUDIO_TEXT = (Path(__file__).parent / "homes" / "studio.yaml").read_text()
@@ -158,6 +158,122 @@ def test_rebuild_after_corrections_by_two_users(built: tuple[Store, IHDRTree]) -
     assert rebuilt.predict_one(context, user) == want == []
     for user, context, _ in plan:
         assert rebuilt.predict_one(context, user) == tree.predict_one(context, user)
+
+
+# -- building again ------------------------------------------------------------------------------------
+STUDIO_SAMPLES = 96  # the studio's start states, from its joint Q table (studio_build)
+STUDIO_GROUP_SAMPLES = 40  # its groups' classes of contexts, from the Q tables learned group by group
+
+
+def _sample_batches(store: Store) -> list[dict]:
+    with store.engine.connect() as conn:
+        rows = conn.execute(select(ExperienceRow.payload).where(ExperienceRow.kind == "samples"))
+        return [json.loads(p) for (p,) in rows]
+
+
+def _correct_three(store: Store, tree: IHDRTree) -> dict[str, list[list[str]]]:
+    """Two users' corrections (three in all); what each user is answered in the three contexts."""
+    store.correct(tree, tree.point(WORK), ["RaiseBlind", "LampOn", "BringTea", "RadioOn"], "alice")
+    store.correct(tree, tree.point(EVENING), ["LowerBlind", "SayGoodnight"], "alice")
+    store.correct(tree, tree.point(NIGHT), ["SayGoodnight"], "bob")
+    return {u: [tree.predict_one(c, u) for c in (WORK, EVENING, NIGHT)] for u in ("alice", "bob")}
+
+
+def test_building_again_changes_nothing(
+    built: tuple[Store, IHDRTree], db_url: str, studio: Home, studio_build: Path
+) -> None:
+    """A second build from the same Q table and seed leaves the log, its counts and the tree
+    as the first left them: the build's samples replace the previous build's."""
+    store, tree = built
+    assert store.experience_count() == tree.n_experiences == STUDIO_SAMPLES
+    counts, signature = store.counts(), tree.signature()
+    assert counts["experiences"] == len(_sample_batches(store)) == 1
+    again = build(studio, store, q_path=studio_build)
+    assert again.samples == STUDIO_SAMPLES
+    assert store.experience_count() == again.tree.n_experiences == STUDIO_SAMPLES
+    assert store.counts() == counts
+    assert again.tree.signature() == signature
+    assert _reopen(db_url, studio).signature() == signature
+    assert store.rebuild().signature() == signature
+
+
+def test_corrections_survive_building_again(
+    built: tuple[Store, IHDRTree], db_url: str, studio: Home, studio_build: Path
+) -> None:
+    store, tree = built
+    answers = _correct_three(store, tree)
+    assert store.experience_count() == STUDIO_SAMPLES + 3
+    counts, signature = store.counts(), tree.signature()
+    users = _user_corrections(store)
+    assert users == ({"alice": 2, "bob": 1}, {"alice": 2, "bob": 1})
+    build(studio, store, q_path=studio_build)
+    assert store.experience_count() == STUDIO_SAMPLES + 3
+    assert store.counts() == counts
+    assert _user_corrections(store) == users
+    loaded = _assert_consistent(db_url, studio)
+    assert loaded.signature() == signature
+    assert loaded.n_experiences == STUDIO_SAMPLES + 3
+    for user, wanted in answers.items():
+        assert [loaded.predict_one(c, user) for c in (WORK, EVENING, NIGHT)] == wanted
+
+
+def test_another_build_replaces_the_samples(
+    built: tuple[Store, IHDRTree], db_url: str, studio: Home, studio_build: Path
+) -> None:
+    """Another seed, mode or Q table: the log keeps the new build's samples and the
+    corrections, which are replayed on the new tree."""
+    store, tree = built
+    answers = _correct_three(store, tree)
+    for how, samples in (
+        ({"q_path": studio_build, "seed": 1}, STUDIO_SAMPLES),
+        ({"q_path": studio_build, "mode": "paper"}, STUDIO_SAMPLES),
+        ({}, STUDIO_GROUP_SAMPLES),  # the Q tables learned group by group: fewer samples
+        ({"q_path": studio_build}, STUDIO_SAMPLES),
+    ):
+        result = build(studio, store, **how)
+        assert result.samples == samples, how
+        assert store.experience_count() == samples + 3, how
+        assert result.tree.n_experiences == samples + 3, how
+        batches = _sample_batches(store)
+        assert sum(b["count"] for b in batches) == samples, how
+        assert len({b["build"] for b in batches}) == 1, how
+        assert store.counts()["corrections"] == 3
+        assert _user_corrections(store) == ({"alice": 2, "bob": 1}, {"alice": 2, "bob": 1})
+        loaded = _assert_consistent(db_url, studio)
+        assert loaded.signature() == result.tree.signature()
+        for user, wanted in answers.items():  # the services corrected, in the new tree's order
+            assert [set(loaded.predict_one(c, user)) for c in (WORK, EVENING, NIGHT)] == [
+                set(w) for w in wanted
+            ], how
+    assert _reopen(db_url, studio).signature() == tree.signature()  # the first build's again
+
+
+def test_a_log_of_older_builds_counts_the_last(
+    built: tuple[Store, IHDRTree], db_url: str, studio: Home, studio_build: Path
+) -> None:
+    """A database whose log kept every build's samples and counted them all (``samples_logged``)
+    counts those of the last build, and the next build removes the earlier ones."""
+    store, tree = built
+    _correct_three(store, tree)
+    with store.engine.begin() as conn:
+        rows = conn.execute(select(ExperienceRow).where(ExperienceRow.kind == "samples")).mappings().all()
+        older = [  # an earlier build's batches, as older databases kept them
+            {**r, "payload": json.dumps(json.loads(r["payload"]) | {"build": 0})} for r in rows
+        ]
+        for row in older:
+            del row["id"]
+        conn.execute(insert(ExperienceRow), older)
+        state = json.loads(conn.execute(select(HomeRow.state)).scalar_one())
+        del state["build_samples"]
+        state["samples_logged"] = 2 * STUDIO_SAMPLES  # what such a database counted: every build's
+        conn.execute(update(HomeRow).values(state=json.dumps(state)))
+    assert len(_sample_batches(store)) == 2
+    assert store.experience_count() == STUDIO_SAMPLES + 3
+    assert store.rebuild().signature() == tree.signature()
+    build(studio, store, q_path=studio_build)
+    assert len(_sample_batches(store)) == 1
+    assert store.experience_count() == STUDIO_SAMPLES + 3
+    assert _assert_consistent(db_url, studio).signature() == tree.signature()
 
 
 # -- corrections ----------------------------------------------------------------------------------------

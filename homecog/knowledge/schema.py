@@ -6,7 +6,7 @@
 - ``nodes``: rows with a parent (root, categories, services);
 - ``clusters``: conditions as JSON, ``user`` NULL for the shared tree, else the user's layer;
 - ``users``: a row per household member, the lock their corrections take, a version;
-- ``experiences``: the append-only log of sample batches, single samples and corrections,
+- ``experiences``: the log: the last build's sample batches, single samples and corrections,
   indexed by (home, kind, user, id) for counts and the history of corrections.
 
 Every table but ``homes`` has a ``home`` column, the home's name, first in its keys: one
@@ -111,7 +111,7 @@ class UserRow(Base):
 
 
 class ExperienceRow(Base):
-    """The append-only experience log: sample batches, single samples and corrections."""
+    """The experience log: the last build's sample batches, single samples and corrections."""
 
     __tablename__ = "experiences"
     __table_args__ = (Index("ix_experiences_home_kind_user_id", "home", "kind", "user", "id"),)

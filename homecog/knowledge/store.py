@@ -2,8 +2,9 @@
 
 SQLAlchemy 2 over SQLite (the default: a file under the user's data directory),
 MariaDB/MySQL (PyMySQL) or PostgreSQL (psycopg 3). Nodes are rows with a parent; clusters
-are rows of a node; every sample and correction is appended to ``experiences`` in the same
-transaction as the tree update, and the tree rebuilt from that log answers identically.
+are rows of a node; a build's samples (replacing the previous build's) and every correction
+are written to ``experiences`` in the same transaction as the tree update, and the tree
+rebuilt from that log answers identically.
 The schema is created and changed by Alembic migrations (``homecog/knowledge/migrations``).
 
 A correction locks its user's row (``SELECT … FOR UPDATE``; SQLite takes the database's
@@ -66,7 +67,7 @@ from homecog.knowledge.statements import (
     USER_VERSION,
     USER_VERSION_LOCKED,
 )
-from homecog.knowledge.store_log import StoreLog, replay
+from homecog.knowledge.store_log import BUILD_SAMPLES, StoreLog, replay
 from homecog.names import user_name_problem
 
 SAMPLES_PER_ROW = 32768
@@ -264,8 +265,10 @@ class Store(StoreLog):
         ``samples`` is a build's :class:`~homecog.knowledge.sample_log.SampleLog` (compact), or
         one sample set stored with its codes and readings. Users' corrections already in the
         log are replayed on the new tree, so a rebuild (another mode, a retrained Q table)
-        loses none of them. A home stored from another home file (a store opened with
-        ``replace``) is replaced whole: its log, users and corrections go with it.
+        loses none of them. The samples replace those of the previous build in the log, so
+        building again from the same Q table and seed changes neither the log nor the tree.
+        A home stored from another home file (a store opened with ``replace``) is replaced
+        whole: its log, users and corrections go with it.
         """
         h = self.home.name
         with self._tx() as conn:
@@ -280,12 +283,16 @@ class Store(StoreLog):
                 for table in (ExperienceRow, UserRow):
                     conn.execute(delete(table).where(table.home == h))
             build_id = (conn.execute(select(func.max(ExperienceRow.id))).scalar_one() or 0) + 1
-            logged = self._samples_logged(conn) + len(samples)
+            # the log keeps the samples the tree is built from: an earlier build's go, so that
+            # building again from the same samples leaves the log as it was
+            conn.execute(
+                delete(ExperienceRow).where(ExperienceRow.home == h, ExperienceRow.kind == "samples")
+            )
             conn.execute(delete(ClusterRow).where(ClusterRow.home == h))
             conn.execute(update(NodeRow).where(NodeRow.home == h).values(parent_id=None))
             conn.execute(delete(NodeRow).where(NodeRow.home == h))
             state = tree.to_state()
-            counters = {**state.counters(), "samples_logged": logged}
+            counters = {**state.counters(), BUILD_SAMPLES: len(samples)}
             values = {
                 "content_hash": self.home.content_hash,
                 "mode": tree.mode,

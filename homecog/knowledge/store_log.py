@@ -27,6 +27,10 @@ from homecog.knowledge.schema import Base, ClusterRow, ExperienceRow, HomeRow, N
 if TYPE_CHECKING:
     from homecog.home.model import Home
 
+# the key of the homes row's counters that holds how many samples the tree was built from
+# (``samples_logged``, of older databases, summed every build's and is no longer read)
+BUILD_SAMPLES = "build_samples"
+
 
 class StoreLog:
     """The log's side of a store (mixed into :class:`~homecog.knowledge.store.Store`)."""
@@ -83,10 +87,12 @@ class StoreLog:
             }
 
     def experience_count(self) -> int:
-        """Experiences in the log: every sample of every build, every single sample and correction."""
+        """Experiences in the log: the samples of the build the tree is built from, and every
+        single sample and correction (what :meth:`rebuild` learns; an earlier build's samples
+        are not counted, nor kept)."""
         with self._tx() as conn:
-            # single samples and corrections: one indexed count; every build's samples: the
-            # total the last build wrote beside the tree
+            # single samples and corrections: one indexed count; the build's samples: the
+            # count the build wrote beside the tree
             others = conn.execute(
                 select(func.count())
                 .select_from(ExperienceRow)
@@ -95,18 +101,20 @@ class StoreLog:
             return others + self._samples_logged(conn)
 
     def _samples_logged(self, conn: Connection) -> int:
-        """Samples in the log, of every build (read from the sample batches in databases older
-        than that count)."""
+        """Samples of the last build (read from its sample batches in databases older than that
+        count, whose log may still hold earlier builds' batches)."""
         state = conn.execute(select(HomeRow.state).where(HomeRow.name == self.home.name)).scalar_one_or_none()
         counters = json.loads(state or "{}")
-        if "samples_logged" in counters:
-            return int(counters["samples_logged"])
+        if BUILD_SAMPLES in counters:
+            return int(counters[BUILD_SAMPLES])
         batches = conn.execute(
             select(ExperienceRow.payload).where(
                 ExperienceRow.home == self.home.name, ExperienceRow.kind == "samples"
             )
         )
-        return sum(json.loads(p).get("count", 0) for (p,) in batches)
+        parts = [json.loads(p) for (p,) in batches]
+        last = max((p["build"] for p in parts), default=None)
+        return sum(p.get("count", 0) for p in parts if p["build"] == last)
 
     def _corrections(self) -> list[tuple[str, str | None, dict[str, Any]]]:
         with self._tx() as conn:
