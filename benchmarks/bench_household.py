@@ -28,6 +28,8 @@ from homecog.context.manual import ManualSource
 from homecog.evaluation.closed_loop import closed_loop
 from homecog.evaluation.scenarios import random_scenarios
 from homecog.home import load_home
+from homecog.knowledge import core
+from homecog.knowledge.correction import Correction
 from homecog.knowledge.pipeline import open_tree
 from homecog.knowledge.store import Store
 from homecog.robot.runtime import Runtime
@@ -105,7 +107,7 @@ def latency(switches: int, console: Console) -> None:
             point = runtime.space.point(scenarios[switches + k].context)
             t = time.perf_counter()
             with runtime.lock:
-                runtime.store.correct(runtime.tree, point, [], "kim")
+                core.correct(runtime.store, runtime.tree, Correction.whole("kim", point, []))
             explicit.append(time.perf_counter() - t)
         learned = runtime.guidance.counts
         store.close()

@@ -26,6 +26,8 @@ from sqlalchemy import create_engine, text
 from homecog.environment.core import Core
 from homecog.evaluation.scenarios import random_scenarios
 from homecog.home import load_home
+from homecog.knowledge import core
+from homecog.knowledge.correction import Correction
 from homecog.knowledge.ihdr import IHDRTree
 from homecog.knowledge.pipeline import ensure_policy, learn_policy
 from homecog.knowledge.samples import SampleSet, make_samples
@@ -82,14 +84,14 @@ def drop_database(admin_url: str, name: str) -> None:
 def corrections(url: str, tree: IHDRTree, samples: SampleSet, n: int) -> tuple[float, float]:
     """p50, p99 seconds to commit a correction (the store's whole transaction)."""
     store = Store.open(url, tree.home)
-    store.save_build(tree, samples)
+    core.save_build(store, tree, samples)
     live = store.load_tree()
     scenarios = random_scenarios(tree.home, n, seed=11)
     times = []
     for i, s in enumerate(scenarios):
         want = sorted(s.truth)[:-1] if i % 2 else [*sorted(s.truth), "ChargeItSelf"]
         t = time.perf_counter()
-        store.correct(live, s.point, want, user=f"user{i % 3}")
+        core.correct(store, live, Correction.whole(f"user{i % 3}", s.point, want))
         times.append(time.perf_counter() - t)
     store.drop_all()
     store.close()

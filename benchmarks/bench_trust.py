@@ -100,7 +100,7 @@ def local_wish(home: Home, n: int, seed: int = 0) -> tuple[str, float, float]:
         x = space.context(s.point)
         x.update(where, **{clock.name: f"{19 + int(rng.integers(0, 3))}:{int(rng.integers(0, 60)):02d}"})
         p = space.point(x)
-        if wish not in t.predict_one(p, user="u") and t._layers.changes(home.service_index(wish), p.codes):
+        if wish not in t.predict_one(p, user="u") and t.layers.changes(home.service_index(wish), p.codes):
             t.correct_one(p, [wish], user="u", concerns=[wish])
             if t.n_clusters("u") == 6:
                 break

@@ -138,6 +138,8 @@ def varied_want(rng: random.Random, predicted: list[str], services: list[str]) -
 def correction_worker(url: str, user: str, n: int, seed: int) -> list[tuple[list[str], list[str]]]:
     """Open a store of the studio home and commit ``n`` corrections by ``user``."""
     from homecog.home import load_home
+    from homecog.knowledge import core
+    from homecog.knowledge.correction import Correction
     from homecog.knowledge.store import Store
 
     home = load_home(STUDIO)
@@ -149,9 +151,10 @@ def correction_worker(url: str, user: str, n: int, seed: int) -> list[tuple[list
         out = []
         for _ in range(n):
             point = tree.point(studio_context(rng))
-            store.refresh_user(tree, user)
+            tree = core.refresh(store, tree)
             want = varied_want(rng, tree.predict_one(point, user), names)
-            out.append(store.correct(tree, point, want, user))
+            outcome = core.correct(store, tree, Correction.whole(user, point, want))
+            out.append((list(outcome.added), list(outcome.rejected)))
         return out
     finally:
         store.close()
@@ -160,6 +163,8 @@ def correction_worker(url: str, user: str, n: int, seed: int) -> list[tuple[list
 def correct_forever(url: str, user: str, seed: int) -> None:
     """Commit corrections by ``user`` until killed, printing ``committed N`` after each."""
     from homecog.home import load_home
+    from homecog.knowledge import core
+    from homecog.knowledge.correction import Correction
     from homecog.knowledge.store import Store
 
     home = load_home(STUDIO)
@@ -171,6 +176,6 @@ def correct_forever(url: str, user: str, seed: int) -> None:
     while True:
         point = tree.point(studio_context(rng))
         want = varied_want(rng, tree.predict_one(point, user), names)
-        store.correct(tree, point, want, user)
+        core.correct(store, tree, Correction.whole(user, point, want))
         done += 1
         print(f"committed {done}", flush=True)

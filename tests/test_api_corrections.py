@@ -69,7 +69,15 @@ def test_an_add_keeps_the_other_services_answers(client, runtime):
     count = runtime.store.experience_count()
     r = client.post("/api/corrections", json={"context": WORK, "change": {"RadioOn": "add"}, "user": "kim"})
     assert r.status_code == 200
-    assert r.json() == {"added": ["RadioOn"], "rejected": [], "experiences": count + 1, "user": "kim"}
+    assert r.json() == {
+        "added": ["RadioOn"],
+        "rejected": [],
+        "experiences": count + 1,
+        "user": "kim",
+        "number": 1,
+        "stored": {"kind": "explicit", "want": ["RadioOn"], "concerns": ["RadioOn"]},
+        "says": "wants RadioOn",
+    }
     # nothing else rejected there (a want of ["RadioOn"] would have rejected the three others)
     assert cognize(client, WORK, "kim") == ["RaiseBlind", "LampOn", "BringTea", "RadioOn"]
     assert cognize(client, RELAX, "kim") == ["BringTea", "RadioOn"]  # another context: as it was

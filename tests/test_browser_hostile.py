@@ -12,6 +12,7 @@ from webserver import LAYOUT, serve
 
 from homecog.context.manual import ManualSource
 from homecog.home import load_home_text
+from homecog.knowledge.correction import Correction
 from homecog.knowledge.pipeline import build
 from homecog.knowledge.store import Store
 from homecog.robot.runtime import Runtime
@@ -43,7 +44,8 @@ def hostile(tmp_path_factory):
     store = Store.open(f"sqlite:///{tmp_path_factory.mktemp('hostile') / 'k.sqlite'}", home)
     runtime = Runtime(home=home, store=store, tree=build(home, store).tree, source=ManualSource(home))
     runtime.set_context({"time": "10:00", "light": 50, "activity": VALUE})
-    runtime.correct(runtime.context(), ["RadioOn"], USER)  # the user's correction, in the history
+    point = runtime.space.point(runtime.context())
+    runtime.correct(Correction.whole(USER, point, ["RadioOn"]))  # the user's correction, in the history
     yield runtime
     store.close()
 

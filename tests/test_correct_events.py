@@ -11,8 +11,11 @@ import pytest
 from knowledge_fixtures import sample_count
 
 from homecog.cli.main import main
+from homecog.errors import ContextError
 from homecog.home import load_home
 from homecog.home.codec import Space
+from homecog.knowledge import core
+from homecog.knowledge.correction import Correction
 from homecog.knowledge.event_file import read_corrections
 from homecog.knowledge.store import Store
 
@@ -85,12 +88,12 @@ def test_batches_store_what_single_corrections_store(built, db, tmp_path, capsys
     store = Store.open(one, home)
     tree = store.load_tree()
     for c in read_corrections(events, home, "default"):
-        store.correct(tree, c.point, c.want, c.user)
+        core.correct(store, tree, c)
     store.close()
     assert snapshot(one) == snapshot(db)
     store = Store.open(db, home)
     try:
-        assert store.rebuild().signature() == store.load_tree().signature()
+        assert core.rebuild(store).signature() == store.load_tree().signature()
     finally:
         store.close()
 
@@ -168,16 +171,15 @@ def test_a_failed_batch_stores_nothing(db):
     before = snapshot(db)
     store = Store.open(db, home)
     tree = store.load_tree()
-
-    def fail_after_a_correction() -> None:
-        with store.batch():
-            store.correct(tree, point, ["LampOn"], "kim")
-            raise RuntimeError("the batch fails after a correction")
-
-    with pytest.raises(RuntimeError):
-        fail_after_a_correction()
-    store.close()
+    answer = tree.predict_one(point, "kim")
+    batch = [Correction.whole("kim", point, ["LampOn"]), Correction.whole("kim", point, ["NoSuchService"])]
+    with pytest.raises(ContextError, match="NoSuchService"):  # the second fails after the first's row
+        core.correct_many(store, tree, batch)
+    assert (tree.n_clusters("kim"), tree.predict_one(point, "kim")) == (0, answer)  # memory as stored
     assert snapshot(db) == before
+    core.correct_many(store, tree, batch[:1])  # and the tree goes on from there
+    assert (tree.n_clusters("kim"), tree.predict_one(point, "kim")) == (1, ["LampOn"])
+    store.close()
 
 
 def test_events_learned_keep_the_recent_past_of_the_stream(db, tmp_path):
@@ -192,7 +194,7 @@ def test_events_learned_keep_the_recent_past_of_the_stream(db, tmp_path):
     assert main(["correct", "--home", STUDIO, "--db", db, "--events", str(tmp_path / "e.csv"), "--json"]) == 0
     store = Store.open(db, studio)
     try:
-        stored = store.rebuild().user_examples("kim")
+        stored = core.rebuild(store).user_examples("kim")
     finally:
         store.close()
     assert [e.recent for e in stored] == [rows[i].point.recent for i in (0, 2, 4)]

@@ -12,6 +12,8 @@ from knowledge_fixtures import samples, tree
 
 from homecog.evaluation.households import make_household
 from homecog.evaluation.scenarios import random_scenarios
+from homecog.knowledge import core
+from homecog.knowledge.correction import Correction
 from homecog.knowledge.store import Store
 
 
@@ -33,7 +35,7 @@ def test_the_features_that_matter_are_learned_from_the_corrections():
     for s in random_scenarios(home, 120, seed=1):
         t.correct_one(s.point, lamp_for_reading(s.point, home), user="ann")
     lamp = home.service_index("TurnOnLamp")
-    key = t._layers.learners("ann")[lamp].best_key()
+    key = t.layers.learners("ann")[lamp].best_key()
     assert home.feature_index("behavior") in key  # its change flips the wish
     assert home.feature_index("location") not in key  # it varied while the wish stayed
     right = 0
@@ -139,14 +141,14 @@ def test_a_household_is_learned_from_its_corrections(kind):
 def test_the_log_rebuilds_every_users_answers_exactly(tmp_path):
     t = fresh("studio")
     store = Store.open(f"sqlite:///{tmp_path}/k.sqlite", t.home)
-    store.save_build(t, samples("studio"))
+    core.save_build(store, t, samples("studio"))
     live = store.load_tree()
     contexts = random_scenarios(t.home, 200, seed=12)
     for user, seed in (("ann", 1), ("bob", 2)):
         household = make_household(t.home, "thresholds", seed=seed)
         for e in household.stream(60, seed=seed):
-            store.correct(live, e.point, sorted(e.wanted), user)
-    rebuilt, loaded = store.rebuild(), store.load_tree()
+            core.correct(store, live, Correction.whole(user, e.point, sorted(e.wanted)))
+    rebuilt, loaded = core.rebuild(store), store.load_tree()
     assert rebuilt.signature() == loaded.signature() == live.signature()
     for user in ("ann", "bob", None):
         answers = [live.predict_one(s.point, user=user) for s in contexts]

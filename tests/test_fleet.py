@@ -25,6 +25,8 @@ from webserver import free_port
 
 from homecog.cli.main import main
 from homecog.home import Home, load_home_text
+from homecog.knowledge import core
+from homecog.knowledge.correction import Correction
 from homecog.knowledge.database import make_engine
 from homecog.knowledge.pipeline import build
 from homecog.knowledge.schema import ClusterRow, ExperienceRow, HomeRow, NodeRow, UserRow
@@ -265,7 +267,7 @@ def _assert_complete_or_absent(url: str, homes: list[Home]) -> list[str]:
         if home.name in rows:
             store = Store.open(url, home)
             try:
-                assert store.rebuild().signature() == store.load_tree().signature()
+                assert core.rebuild(store).signature() == store.load_tree().signature()
             finally:
                 store.close()
     return sorted(rows)
@@ -344,7 +346,7 @@ def test_a_one_home_database_of_schema_0002_moves_to_the_keyed_form(
         "desk_lamp": "off",
         "radio": "off",
     }
-    source.correct(tree, tree.point(context), ["RadioOn"], "alice")
+    core.correct(source, tree, Correction.whole("alice", tree.point(context), ["RadioOn"]))
     before = (source.load_tree().signature(), source.counts(), source.experience_count())
     tables = {}
     with source.engine.connect() as conn:
@@ -373,7 +375,7 @@ def test_a_one_home_database_of_schema_0002_moves_to_the_keyed_form(
     store = Store.open(db_url, studio)  # migrates
     try:
         assert (store.load_tree().signature(), store.counts(), store.experience_count()) == before
-        assert store.rebuild().signature() == before[0]
+        assert core.rebuild(store).signature() == before[0]
         assert store.home_version() == (1, 1)
         assert store.load_tree().predict_one(context, "alice") == tree.predict_one(context, "alice")
     finally:

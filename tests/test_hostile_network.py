@@ -25,6 +25,8 @@ from homecog.errors import SettingsError
 from homecog.fleet.serve import Fleet, FleetApp
 from homecog.fleet.train import learn_home, plan
 from homecog.home import load_home_text
+from homecog.knowledge import core
+from homecog.knowledge.correction import Correction
 from homecog.knowledge.ihdr import IHDRTree
 from homecog.knowledge.store import Store
 from homecog.robot.runtime import Runtime
@@ -281,9 +283,9 @@ def test_users_of_two_spellings_are_two_users_on_every_server(fleet_url):
             tree.space.point(base | {"time": t} | dict.fromkeys(home.device_names, "off"))
             for t in ("20:00", "23:00")
         )
-        one.correct(tree, evening, ["SendDrinks"], "Kim")
-        other.correct(elsewhere, evening, [], "kim")
-        one.correct(tree, night, ["SendDrinks"], "Kim")  # Kim's row: has it moved?
+        core.correct(one, tree, Correction.whole("Kim", evening, ["SendDrinks"]))
+        core.correct(other, elsewhere, Correction.whole("kim", evening, []))
+        core.correct(one, tree, Correction.whole("Kim", night, ["SendDrinks"]))  # Kim's row: has it moved?
         assert len(tree.user_examples("Kim")) == 2
         again = one.load_tree()
         assert [len(again.user_examples(u)) for u in ("Kim", "kim")] == [2, 1]

@@ -41,7 +41,7 @@ from homecog.context.mqtt_publisher import publish_context
 from homecog.context.mqtt_source import MqttSource
 from homecog.home import load_home, load_home_text
 from homecog.home.model import Home
-from homecog.knowledge.history import Correction, correction_history
+from homecog.knowledge.history import Logged, correction_history
 from homecog.knowledge.pipeline import build
 from homecog.knowledge.store import Store
 from homecog.robot.guidance import FLAP_SECONDS, switch_services
@@ -86,11 +86,11 @@ def services(runtime: Runtime, context: dict[str, str], user: str) -> list[str]:
     return runtime.cognize(context, user)["services"]
 
 
-def history(store: Store) -> list[Correction]:
+def history(store: Store) -> list[Logged]:
     return correction_history(store).corrections
 
 
-def observed(c: Correction) -> tuple[str, str, list[str], list[str], list[str] | None, dict | None]:
+def observed(c: Logged) -> tuple[str, str, list[str], list[str], list[str] | None, dict | None]:
     return (c.user, c.kind, c.want, c.added, c.concerns, c.note)
 
 

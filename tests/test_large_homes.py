@@ -17,6 +17,7 @@ from homecog.evaluation.scenarios import random_scenarios
 from homecog.home import Home
 from homecog.home.classes import group_classes
 from homecog.home.groups import device_groups
+from homecog.knowledge import core
 from homecog.knowledge.ihdr import IHDRTree
 from homecog.knowledge.pipeline import build
 from homecog.knowledge.store import Store
@@ -63,7 +64,7 @@ def test_multi_reaches_its_precision_and_recall_on_48_devices(rooms8: Home, buil
 def test_the_compact_log_rebuilds_the_same_tree(built: tuple[Store, IHDRTree], rooms8: Home):
     store, tree = built
     assert store.load_tree().signature() == tree.signature()
-    assert store.rebuild().signature() == tree.signature()
+    assert core.rebuild(store).signature() == tree.signature()
     with store.engine.connect() as conn:
         size = conn.exec_driver_sql("SELECT SUM(LENGTH(data)) FROM experiences").scalar_one()
     assert size < 518_400  # less than a byte a sample: positions and mask indices, compressed
@@ -75,12 +76,12 @@ def test_group_tables_answer_as_the_clusters_do(built: tuple[Store, IHDRTree], r
     for s in cases[:30]:
         tree.correct_one(s.point, sorted(s.truth)[:3], user="kim")  # a user layer on top
     fast = [tree.explain_one(s.point, user=u).as_dict() for s in cases for u in (None, "kim")]
-    assert tree._gindex  # the group tables were used
-    tree._gindex = False  # force the lookup of every cluster of every service
+    assert tree.data.gindex  # the group tables were used
+    tree.data.gindex = False  # force the lookup of every cluster of every service
     try:
         slow = [tree.explain_one(s.point, user=u).as_dict() for s in cases for u in (None, "kim")]
     finally:
-        tree._gindex = None
+        tree.data.gindex = None
     assert fast == slow
 
 

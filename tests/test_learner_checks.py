@@ -13,7 +13,9 @@ import pytest
 from homecog.evaluation.scenarios import random_scenarios
 from homecog.home import Home, load_home
 from homecog.home.codec import Point
+from homecog.knowledge import core
 from homecog.knowledge.box_index import BoxIndex
+from homecog.knowledge.correction import Correction
 from homecog.knowledge.ihdr import IHDRTree
 from homecog.knowledge.model import IDLE, Cluster, Node
 from homecog.knowledge.pipeline import learn_policy
@@ -76,10 +78,10 @@ def test_the_store_and_a_rebuild_from_its_log_answer_identically(learned, tmp_pa
     home, _, shared, log = learned
     tree = pickle.loads(pickle.dumps(shared))
     store = Store.open(f"sqlite:///{tmp_path / 'k.sqlite'}", home)
-    store.save_build(tree, log)
+    core.save_build(store, tree, log)
     for x in _contexts(home, 20, seed=9):
-        store.correct(tree, tree.point(x), [], "ann")
-    loaded, rebuilt = store.load_tree(), store.rebuild()
+        core.correct(store, tree, Correction.whole("ann", tree.point(x), []))
+    loaded, rebuilt = store.load_tree(), core.rebuild(store)
     assert loaded.signature() == rebuilt.signature() == tree.signature()
     for x in _contexts(home, 200, seed=5):
         expected = tree.explain_one(x, user="ann").as_dict()

@@ -101,7 +101,7 @@ def test_a_wish_that_follows_the_previous_moment_is_learned_from_the_recent_past
     quiet = replace(after, previous=frozenset())
     assert light not in t.predict_one(replace(base, recent=after), "ann")
     assert light in t.predict_one(replace(base, recent=quiet), "ann")
-    learner = t._layers.learners("ann")[home.service_index(light)]
+    learner = t.layers.learners("ann")[home.service_index(light)]
     assert len(home.features) + len(recent_names(home)) in learner.best_key()  # "wanted just before"
     why = next(
         e for e in t.explain_one(replace(base, recent=quiet), "ann").explanations if e.service == light

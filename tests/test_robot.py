@@ -14,6 +14,8 @@ from homecog.context import DeviceChange
 from homecog.context.manual import ManualSource
 from homecog.errors import HomeFileError
 from homecog.home import load_home_text
+from homecog.knowledge import core
+from homecog.knowledge.correction import Correction
 from homecog.knowledge.evidence import ServiceLearner
 from homecog.knowledge.history import correction_history
 from homecog.knowledge.pipeline import build
@@ -230,9 +232,9 @@ def test_the_log_keeps_the_kinds_through_a_reload_and_a_rebuild(stored, tmp_path
     runtime.act(now, ["RaiseBlind"])
     runtime.source.switch("blind", False)  # undo
     runtime.source.switch("radio", True)  # observed
-    runtime.correct(now, ["BringTea"], "kim")  # explicit
+    runtime.correct(Correction.whole("kim", runtime.space.point(now), ["BringTea"]))  # explicit
     assert [k for k, *_ in kinds(runtime)] == ["undo", "observed", "explicit"]
-    for tree in (runtime.store.load_tree(), runtime.store.rebuild()):
+    for tree in (runtime.store.load_tree(), core.rebuild(runtime.store)):
         for user in ("default", "kim"):
             for ctx in (now, {**now, "activity": "relax"}, {**now, "radio": "on", "blind": "on"}):
                 assert tree.predict_one(runtime.space.point(ctx), user) == runtime.tree.predict_one(
@@ -390,18 +392,18 @@ def test_a_database_that_fails_stops_neither_the_robot_nor_an_undo_for_good(stor
     runtime.source.clock = lambda: 0.0  # type: ignore[method-assign]
     runtime.act_now("default")
     action = runtime.journal.recent(1)[0]
-    real = runtime.store.correct
+    real = runtime.store.transaction
 
     def down(*args, **kwargs):
         raise StoreError("database sqlite:///k.sqlite: cannot use the database: disk I/O error")
 
-    monkeypatch.setattr(runtime.store, "correct", down)
+    monkeypatch.setattr(runtime.store, "transaction", down)
     runtime.source.set_context({"activity": "relax"})
     runtime.source.clock = lambda: 1000.0  # type: ignore[method-assign]
     assert runtime.tick(0) is not None  # the work situation ended: not learned, the robot goes on
     failed = client.post(f"/api/actions/{action.id}/undo")
     assert failed.status_code == 503 and not action.undone_here and action.undone == {}
-    monkeypatch.setattr(runtime.store, "correct", real)
+    monkeypatch.setattr(runtime.store, "transaction", real)
     done = client.post(f"/api/actions/{action.id}/undo")
     assert done.status_code == 200 and done.json()["rejected"] == action.services
     assert action.undone_here and set(action.undone) == {d for d, _ in action.switches}
@@ -422,7 +424,7 @@ def test_the_robot_lives_a_stream_of_moments_and_learns_with_their_recent_past(s
     assert recent.previous == frozenset(wanted)
     assert recent.since_switched("desk_lamp") == "<5"
     assert recent.value("previous activity") == "work"  # the situation before relaxing
-    examples = runtime.store.rebuild().user_examples("default")
+    examples = core.rebuild(runtime.store).user_examples("default")
     assert examples[-1].recent is not None
     assert examples[-1].recent.value("weekday") == runtime.moments.now().strftime("%a").lower()
     assert examples[-1].recent.value("minutes in activity") == "<5"

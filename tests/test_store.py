@@ -18,6 +18,7 @@ import time
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
+from typing import Any
 
 import pytest
 from servers import (
@@ -30,6 +31,8 @@ from sqlalchemy import func, insert, select, update
 
 from homecog.errors import ContextError, NameProblemError, StoreError
 from homecog.home import Home, load_home_text
+from homecog.knowledge import core
+from homecog.knowledge.correction import Correction
 from homecog.knowledge.ihdr import IHDRTree
 from homecog.knowledge.pipeline import build
 from homecog.knowledge.schema import ExperienceRow, HomeRow, UserRow
@@ -103,7 +106,7 @@ def _assert_consistent(url: str, home: Home) -> IHDRTree:
     store = Store.open(url, home)
     try:
         loaded = store.load_tree()
-        assert store.rebuild().signature() == loaded.signature()
+        assert core.rebuild(store).signature() == loaded.signature()
         users, logged = _user_corrections(store)
         assert users == logged
         assert store.counts()["corrections"] == sum(logged.values())
@@ -127,7 +130,7 @@ def test_build_then_load(built: tuple[Store, IHDRTree], db_url: str, studio: Hom
     for context in (WORK, EVENING, NIGHT):
         assert loaded.predict_one(context) == tree.predict_one(context)
     assert loaded.predict_one(WORK) == ["RaiseBlind", "LampOn", "BringTea"]
-    assert store.rebuild().signature() == tree.signature()
+    assert core.rebuild(store).signature() == tree.signature()
 
 
 def test_rebuild_after_corrections_by_two_users(built: tuple[Store, IHDRTree]) -> None:
@@ -144,14 +147,14 @@ def test_rebuild_after_corrections_by_two_users(built: tuple[Store, IHDRTree]) -
     ]
     kinds = set()
     for user, context, want in plan:
-        added, rejected = store.correct(tree, tree.point(context), want, user)
+        added, rejected = _correct(store, tree, tree.point(context), want, user)
         kinds |= {"add"} if added else set()
         kinds |= {"reject"} if rejected else set()
         assert set(tree.predict_one(context, user)) == set(want)
     assert kinds == {"add", "reject"}
     assert tree.n_clusters("alice") > 0
     assert tree.n_clusters("bob") > 0
-    rebuilt = store.rebuild()
+    rebuilt = core.rebuild(store)
     assert rebuilt.signature() == tree.signature()
     assert store.load_tree().signature() == tree.signature()
     user, context, want = plan[-1]
@@ -173,9 +176,9 @@ def _sample_batches(store: Store) -> list[dict]:
 
 def _correct_three(store: Store, tree: IHDRTree) -> dict[str, list[list[str]]]:
     """Two users' corrections (three in all); what each user is answered in the three contexts."""
-    store.correct(tree, tree.point(WORK), ["RaiseBlind", "LampOn", "BringTea", "RadioOn"], "alice")
-    store.correct(tree, tree.point(EVENING), ["LowerBlind", "SayGoodnight"], "alice")
-    store.correct(tree, tree.point(NIGHT), ["SayGoodnight"], "bob")
+    _correct(store, tree, tree.point(WORK), ["RaiseBlind", "LampOn", "BringTea", "RadioOn"], "alice")
+    _correct(store, tree, tree.point(EVENING), ["LowerBlind", "SayGoodnight"], "alice")
+    _correct(store, tree, tree.point(NIGHT), ["SayGoodnight"], "bob")
     return {u: [tree.predict_one(c, u) for c in (WORK, EVENING, NIGHT)] for u in ("alice", "bob")}
 
 
@@ -194,7 +197,7 @@ def test_building_again_changes_nothing(
     assert store.counts() == counts
     assert again.tree.signature() == signature
     assert _reopen(db_url, studio).signature() == signature
-    assert store.rebuild().signature() == signature
+    assert core.rebuild(store).signature() == signature
 
 
 def test_corrections_survive_building_again(
@@ -269,7 +272,7 @@ def test_a_log_of_older_builds_counts_the_last(
         conn.execute(update(HomeRow).values(state=json.dumps(state)))
     assert len(_sample_batches(store)) == 2
     assert store.experience_count() == STUDIO_SAMPLES + 3
-    assert store.rebuild().signature() == tree.signature()
+    assert core.rebuild(store).signature() == tree.signature()
     build(studio, store, q_path=studio_build)
     assert len(_sample_batches(store)) == 1
     assert store.experience_count() == STUDIO_SAMPLES + 3
@@ -286,7 +289,7 @@ def test_correction_is_per_user_and_persisted(
     experiences = store.experience_count()
 
     # alice adds the radio
-    added, rejected = store.correct(tree, tree.point(WORK), [*shared, "RadioOn"], "alice")
+    added, rejected = _correct(store, tree, tree.point(WORK), [*shared, "RadioOn"], "alice")
     assert (added, rejected) == (["RadioOn"], [])
     assert _last_correction(store)["added"] == ["RadioOn"]
     assert _last_correction(store)["rejected"] == []
@@ -299,7 +302,7 @@ def test_correction_is_per_user_and_persisted(
     assert other.predict_one(WORK) == shared
 
     # alice rejects the tea
-    added, rejected = store.correct(tree, tree.point(WORK), ["RaiseBlind", "LampOn", "RadioOn"], "alice")
+    added, rejected = _correct(store, tree, tree.point(WORK), ["RaiseBlind", "LampOn", "RadioOn"], "alice")
     assert (added, rejected) == ([], ["BringTea"])
     assert _last_correction(store)["added"] == []
     assert _last_correction(store)["rejected"] == ["BringTea"]
@@ -309,7 +312,7 @@ def test_correction_is_per_user_and_persisted(
     assert other.predict_one(WORK, "bob") == shared
 
     # bob's own correction does not touch alice's
-    added, rejected = store.correct(tree, tree.point(WORK), ["LampOn"], "bob")
+    added, rejected = _correct(store, tree, tree.point(WORK), ["LampOn"], "bob")
     assert (added, rejected) == ([], ["RaiseBlind", "BringTea"])
     assert _last_correction(store)["rejected"] == ["RaiseBlind", "BringTea"]
     assert store.experience_count() == experiences + 3
@@ -323,7 +326,7 @@ def test_correction_is_per_user_and_persisted(
     assert _user_corrections(store) == ({"alice": 2, "bob": 1}, {"alice": 2, "bob": 1})
 
     # a correction that changes nothing is still an experience
-    added, rejected = store.correct(tree, tree.point(WORK), ["LampOn"], "bob")
+    added, rejected = _correct(store, tree, tree.point(WORK), ["LampOn"], "bob")
     assert (added, rejected) == ([], [])
     assert store.experience_count() == experiences + 4
 
@@ -332,21 +335,21 @@ def test_bad_correction_leaves_the_store_unchanged(
     built: tuple[Store, IHDRTree], db_url: str, studio: Home
 ) -> None:
     store, tree = built
-    store.correct(tree, tree.point(WORK), ["LampOn"], "alice")
+    _correct(store, tree, tree.point(WORK), ["LampOn"], "alice")
     counts, experiences = store.counts(), store.experience_count()
     signature = _reopen(db_url, studio).signature()
     with pytest.raises(ContextError, match="NoSuchService"):
         tree.correct_one(tree.point(WORK), ["LampOn", "NoSuchService"], "alice")
     with pytest.raises(ContextError, match="NoSuchService"):
-        store.correct(tree, tree.point(WORK), ["LampOn", "NoSuchService"], "alice")
+        _correct(store, tree, tree.point(WORK), ["LampOn", "NoSuchService"], "alice")
     with pytest.raises(ContextError, match="NoSuchService"):
-        store.correct(tree, tree.point(WORK), ["NoSuchService"], "carol")  # a new user
+        _correct(store, tree, tree.point(WORK), ["NoSuchService"], "carol")  # a new user
     with pytest.raises(NameProblemError, match="the user name is empty"):
-        store.correct(tree, tree.point(WORK), ["LampOn"], "")
+        _correct(store, tree, tree.point(WORK), ["LampOn"], "")
     assert store.counts() == counts
     assert store.experience_count() == experiences
     assert _reopen(db_url, studio).signature() == signature
-    store.refresh_user(tree, "alice")
+    core.refresh(store, tree)
     assert tree.predict_one(WORK, "alice") == ["LampOn"]
     assert tree.signature() == signature
 
@@ -519,7 +522,7 @@ def test_sigkill_leaves_a_consistent_store(built: tuple[Store, IHDRTree], db_url
         tree = after.load_tree()
         assert tree.signature() == loaded.signature()
         want = varied_want(random.Random(3), tree.predict_one(WORK, "alice"), list(studio.service_names))
-        after.correct(tree, tree.point(WORK), want, "alice")
+        _correct(after, tree, tree.point(WORK), want, "alice")
         # counted at once (whether it flips an answer depends on her earlier evidence)
         assert tree.user_examples("alice")[-1].want == {studio.service_index(s) for s in want}
         assert after.load_tree().signature() == tree.signature()
@@ -527,3 +530,11 @@ def test_sigkill_leaves_a_consistent_store(built: tuple[Store, IHDRTree], db_url
     finally:
         after.close()
     assert _assert_consistent(db_url, studio).predict_one(WORK, "alice") == tree.predict_one(WORK, "alice")
+
+
+def _correct(
+    store: Store, tree: IHDRTree, point: Any, want: list[str], user: str
+) -> tuple[list[str], list[str]]:
+    """A whole-set correction through the knowledge core: (added, rejected)."""
+    outcome = core.correct(store, tree, Correction.whole(user, point, want))
+    return list(outcome.added), list(outcome.rejected)

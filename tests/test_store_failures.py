@@ -11,7 +11,9 @@ from sqlalchemy import text
 
 from homecog.context.manual import ManualSource
 from homecog.errors import StoreError
-from homecog.knowledge.event_file import EventCorrection, learn_corrections
+from homecog.knowledge import core
+from homecog.knowledge.correction import Correction
+from homecog.knowledge.event_file import learn_corrections
 from homecog.knowledge.pipeline import build
 from homecog.knowledge.store import Store
 from homecog.robot.runtime import Runtime
@@ -87,7 +89,9 @@ def test_a_refused_correction_leaves_the_user_s_learning_in_memory(stored, studi
     again = stored.load_tree()
     assert again.user_examples("kim") == examples
     with pytest.raises(StoreError):
-        stored.correct(runtime.tree, runtime.space.point(relax), [], "ann")  # a user without a layer yet
+        core.correct(
+            stored, runtime.tree, Correction.whole("ann", runtime.space.point(relax), [])
+        )  # a user without a layer yet
     assert runtime.tree.user_examples("ann") == [] and "ann" not in runtime.tree.users
 
 
@@ -96,7 +100,7 @@ def test_a_failed_batch_leaves_exactly_the_batches_stored_before(stored, studio)
     space, start = tree.space, tree.n_experiences
     contexts = [{**WORK, "light": light} for light in range(0, 300, 12)]  # 25 corrections
     rows = [
-        EventCorrection(point=space.point(c), want=["RadioOn"] if i % 2 else [], user=("kim", "ann")[i % 2])
+        Correction.whole(("kim", "ann")[i % 2], space.point(c), ["RadioOn"] if i % 2 else [])
         for i, c in enumerate(contexts)
     ]
     with stored.engine.connect() as conn:

@@ -21,7 +21,9 @@ from homecog.home import load_home
 from homecog.home.codec import Space
 from homecog.home.recent import RecentPast
 from homecog.home.scenario_file import load_scenarios
+from homecog.knowledge import core
 from homecog.knowledge.additive import AtomLogistic
+from homecog.knowledge.correction import Correction
 from homecog.knowledge.cuts import kt_share
 from homecog.knowledge.evidence import ServiceLearner
 from homecog.knowledge.pipeline import open_tree
@@ -132,17 +134,17 @@ def test_a_stream_learned_through_the_store_answers_the_same_after_a_reload(tmp_
     for k in range(40):  # the lamp wanted at every other moment: only the recent past tells
         p = replace(space.point(PAPER_X), recent=past.at(when, PAPER_X))
         want = ["TurnOnLamp"] if k % 2 else []
-        store.correct(t, p, want, "ann")
+        core.correct(store, t, Correction.whole("ann", p, want))
         past.learn(when, PAPER_X, want)
         when += timedelta(minutes=7)
     probe = replace(space.point(PAPER_X), recent=past.at(when, PAPER_X))
     before = t.predict_one(probe, "ann")
-    assert t._layers.learners("ann")[home.service_index("TurnOnLamp")].streaming
+    assert t.layers.learners("ann")[home.service_index("TurnOnLamp")].streaming
     store.close()
     again = Store.open(url, home)
     reloaded = open_tree(home, again)
     assert reloaded.predict_one(probe, "ann") == before
-    lamp = reloaded._layers.learners("ann")[home.service_index("TurnOnLamp")]
+    lamp = reloaded.layers.learners("ann")[home.service_index("TurnOnLamp")]
     assert lamp.streaming  # the recent past came back with the corrections
     again.close()
 
@@ -208,7 +210,9 @@ def test_a_correction_with_a_missing_reading_keys_on_unknown(tmp_path: Path):
     space = Space(home)
     missing = space.point({**PAPER_X, "temperature": "unknown"})
     for _ in range(3):  # Kim wants the lamp whenever the thermometer says nothing
-        store.correct(t, missing, ["TurnOnLamp", *t.predict_one(missing, "kim")], "kim")
+        core.correct(
+            store, t, Correction.whole("kim", missing, ["TurnOnLamp", *t.predict_one(missing, "kim")])
+        )
     assert "TurnOnLamp" in t.predict_one(missing, "kim")
     why = next(e for e in t.explain_one(missing, "kim").explanations if e.service == "TurnOnLamp")
     assert why.evidence["agreed"] == 3

@@ -53,7 +53,7 @@ def _knowledge(h: Home, db: str | None) -> Iterator[tuple[Any, Any]]:
 def cognize(
     context: ContextOption,
     home: HomeOption = "paper",
-    user: UserOption = "default",
+    user: UserOption = None,
     db: DbOption = None,
     json: JsonOption = False,
 ) -> None:
@@ -61,6 +61,7 @@ def cognize(
     from homecog.home.codec import Space, parse_context
 
     h = load_home(home)
+    user = _member(h, user)
     point = parse_context(context, Space(h))
     with _knowledge(h, db) as (_, tree):
         result = tree.explain_one(point, user=user)
@@ -99,14 +100,15 @@ def correct(
     ] = None,
     batch: Annotated[int, typer.Option(min=1, help="Corrections of --events to a transaction.")] = 100,
     home: HomeOption = "paper",
-    user: UserOption = "default",
+    user: UserOption = None,
     db: DbOption = None,
     json: JsonOption = False,
 ) -> None:
     """Tell the robot which services the user wants in a context, or learn an event file; it
     learns at once."""
     from homecog.home.codec import Space, parse_context, parse_services
-    from homecog.knowledge.kinds import Kind
+    from homecog.knowledge import core
+    from homecog.knowledge.correction import Correction
 
     partial = add is not None or reject is not None
     if events is not None:
@@ -121,8 +123,8 @@ def correct(
             "give --context and --want (the whole set) or --add/--reject, or --events FILE"
         )
     h = load_home(home)
+    user = _member(h, user)
     point = parse_context(context, Space(h))
-    how = None
     if partial:
         adds, rejects = parse_services(add or "", h), parse_services(reject or "", h)
         both = sorted(set(adds) & set(rejects))
@@ -130,29 +132,43 @@ def correct(
             raise UsageProblemError(f"--add and --reject both name {both[0]}")
         if not adds and not rejects:
             raise UsageProblemError("--add and --reject name no service")
-        wanted, how = adds, Kind(concerns=adds + rejects)
+        c = Correction.change(user, point, add=adds, reject=rejects)
     else:
-        wanted = parse_services(want, h)  # type: ignore[arg-type]
+        c = Correction.whole(user, point, parse_services(want, h))  # type: ignore[arg-type]
     with _knowledge(h, db) as (store, tree):
-        added, rejected = store.correct(tree, point, wanted, user, how)
+        outcome = core.correct(store, tree, c)
         experiences = store.experience_count()
     if json:
-        emit_json({"added": added, "rejected": rejected, "experiences": experiences, "user": user})
+        emit_json({**outcome.as_dict(), "experiences": experiences})
         return
+    changed = [f"now adds {', '.join(outcome.added)}"] if outcome.added else []
+    changed += [f"no longer proposes {', '.join(outcome.rejected)}"] if outcome.rejected else []
     stdout.print(
-        f"learned for {user}: added {', '.join(added) or 'nothing'}; "
-        f"rejected {', '.join(rejected) or 'nothing'} ({experiences:,} experiences)"
+        f"stored {user}'s correction #{outcome.number}: {c.says()}; "
+        f"{'the robot ' + ' and '.join(changed) if changed else 'the robot already answered so'} "
+        f"({experiences:,} experiences)"
     )
 
 
-def _correct_events(events: Path, *, home: str, user: str, db: str | None, batch: int, json: bool) -> None:
+def _member(h: Home, user: str | None) -> str:
+    """``--user``, or the home's default user; one of the household's users where it names them."""
+    if user is None:
+        return h.household.default_user
+    if not h.household.knows(user):
+        raise UsageProblemError(f"--user {user}: not one of the household ({h.household.names()})")
+    return user
+
+
+def _correct_events(
+    events: Path, *, home: str, user: str | None, db: str | None, batch: int, json: bool
+) -> None:
     """``correct --events``: the whole file checked, then learned in batches of transactions."""
     check_readable(events, "--events", "an event file")
     from homecog.cli.output import progress_bar
     from homecog.knowledge.event_file import learn_corrections, read_corrections
 
     h = load_home(home)
-    corrections = read_corrections(events, h, user)  # every row checked before the first write
+    corrections = read_corrections(events, h, _member(h, user))  # every row checked before the first write
     with _knowledge(h, db) as (store, tree), progress_bar("learning corrections", len(corrections)) as bar:
         result = learn_corrections(store, tree, corrections, batch=batch, progress=bar)
     if json:

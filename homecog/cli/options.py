@@ -45,8 +45,10 @@ ContextOption = Annotated[str, typer.Option("--context", help=_CONTEXT_HELP)]
 OptionalContextOption = Annotated[str | None, typer.Option("--context", help=_CONTEXT_HELP)]
 
 
-def _user(value: str) -> str:
+def _user(value: str | None) -> str | None:
     """``--user`` checked as every edge checks a user name (:mod:`homecog.names`)."""
+    if value is None:
+        return None
     problem = user_name_problem(value)
     if problem is not None:
         raise UsageProblemError(f"--user: {problem}")
@@ -54,7 +56,13 @@ def _user(value: str) -> str:
 
 
 UserOption = Annotated[
-    str, typer.Option("--user", help="The household member (1 to 64 printable characters).", callback=_user)
+    str | None,
+    typer.Option(
+        "--user",
+        help="The household member (1 to 64 printable characters; default: the home's "
+        "household.default_user).",
+        callback=_user,
+    ),
 ]
 HostOption = Annotated[str, typer.Option(help="Address to serve on; any but 127.0.0.1 needs a token.")]
 PortOption = Annotated[int, typer.Option(min=1, max=65535, help="Port to serve on.")]

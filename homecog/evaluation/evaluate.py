@@ -111,6 +111,8 @@ def correction_curve(
 ) -> list[dict[str, float]]:
     """Precision, recall and F1 of ``multi`` for a user who corrects it after each of ``k``
     fresh scenarios (never the measured ones), measured at 0 and after every block."""
+    from homecog.knowledge import core
+    from homecog.knowledge.correction import Correction
     from homecog.knowledge.store import Store
 
     block = block or max(1, k // 10)
@@ -118,7 +120,7 @@ def correction_curve(
     with tempfile.TemporaryDirectory() as tmp:
         store = Store.open(db or f"sqlite:///{tmp}/corrections.sqlite", home)
         try:
-            store.save_build(tree, samples)
+            core.save_build(store, tree, samples)
             live = store.load_tree()
             method = TreeMethod(live, user=user)
             names = home.service_names
@@ -134,7 +136,8 @@ def correction_curve(
 
             curve = [measure(0)]
             for i, s in enumerate(stream, start=1):
-                store.correct(live, s.point, sorted(s.truth_for(live.predict_one(s.point, user))), user)
+                want = sorted(s.truth_for(live.predict_one(s.point, user)))
+                core.correct(store, live, Correction.whole(user, s.point, want))
                 if i % block == 0 or i == k:
                     curve.append(measure(i))
                     if progress:

@@ -43,6 +43,7 @@ from homecog.context.manual import ManualSource
 from homecog.errors import FleetError, HomecogError, StoreError, UnknownHomeError
 from homecog.fleet.schema import FLEET_SCHEMA, HOME_SCHEMA, PREFIX, fleet_schema, prefixed
 from homecog.home.validator import load_home_text
+from homecog.knowledge import core
 from homecog.knowledge.database import db_message, make_engine, migrate
 from homecog.knowledge.schema import HomeRow
 from homecog.knowledge.store import Store
@@ -190,7 +191,7 @@ class Fleet:
         or the whole tree after another build)."""
         runtime = entry.runtime
         with runtime.lock:
-            runtime.tree = entry.store.refresh(runtime.tree)
+            runtime.tree = core.refresh(entry.store, runtime.tree)
             entry.version = version
 
     def forget(self, name: str) -> None:

@@ -67,6 +67,17 @@ class Household:
         """How many corrections' worth a correction of ``kind`` counts."""
         return self.weights.get(kind, DEFAULT_WEIGHTS.get(kind, 1))
 
+    def knows(self, user: str) -> bool:
+        """Whether ``user`` is one of the household: with ``users``, one of its names or the
+        default user; without, any user."""
+        return self.users is None or user == self.default_user or user in self.users.values()
+
+    def names(self) -> str:
+        """The household's users, for a message (``any`` without ``users``)."""
+        if self.users is None:
+            return "any"
+        return ", ".join(sorted({*self.users.values(), self.default_user}))
+
     def user(self, person: str | None) -> str | None:
         """The homecog user of a person as the source names them (``None``: nobody known)."""
         if self.users is None:

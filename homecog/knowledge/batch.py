@@ -1,4 +1,4 @@
-"""A sample set learned into the tree at once (``IHDRTree.learn_many``).
+"""A sample set learned into the tree's data at once (``IHDRTree.learn_many``).
 
 The same as ``learn_one`` for each sample in order, but each distinct row — a service, what
 matters to it, the codes there — is learned once with its count, which is what makes building
@@ -17,13 +17,13 @@ import numpy as np
 
 from homecog.knowledge.box_index import distinct_rows, group_min_max
 from homecog.knowledge.model import bits
-from homecog.knowledge.update import SampleRow
+from homecog.knowledge.update import SampleRow, learn_row
 
 if TYPE_CHECKING:
-    from homecog.knowledge.ihdr import IHDRTree
+    from homecog.knowledge.tree import Tree
 
 
-def learn_sample_set(tree: IHDRTree, samples: Any) -> None:
+def learn_sample_set(tree: Tree, samples: Any) -> None:
     """Learn a :class:`~homecog.knowledge.samples.SampleSet` into ``tree`` (see the module)."""
     if tree.mode == "paper":
         samples = samples.expand()
@@ -35,8 +35,8 @@ def learn_sample_set(tree: IHDRTree, samples: Any) -> None:
     done = positions >= 0
     for a in range(n_services):
         later = done & done[:, [a]] & (positions > positions[:, [a]])
-        tree._precedence[where[a], list(where)] += (later * weight[:, None]).sum(axis=0)
-    tree._before = None
+        tree.precedence[where[a], list(where)] += (later * weight[:, None]).sum(axis=0)
+    tree.before = None
     for a in range(n_services + 1):
         rows, row_masks, row_pos = _rows_of(samples, a)
         if rows.size:
@@ -61,7 +61,7 @@ def _rows_of(samples: Any, a: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 
 def _learn_rows(
-    tree: IHDRTree,
+    tree: Tree,
     samples: Any,
     target: int,
     rows: np.ndarray,
@@ -84,16 +84,16 @@ def _learn_rows(
     row_counts, row_sums = counts[order].tolist(), pos_sums[order].tolist()
     row_stats = {j: [stats[j][k][order].tolist() for k in range(3)] for j in stats}
     dims = samples.dims if samples.dims is not None else tuple(range(len(samples.space.dims)))
-    place = _Placer(len(tree._space), dims, _class_sets(samples))
+    place = _Placer(len(tree.space), dims, _class_sets(samples))
     for i in range(len(order)):
         mask, full_codes, full_readings, sets = place(local_masks[i], row_codes[i], row_readings[i])
         extra = {dims[j]: (st[0][i], st[1][i], st[2][i]) for j, st in row_stats.items()}
         row = SampleRow(mask, full_codes, full_readings, row_counts[i], row_sums[i], extra, sets)
-        tree._learn_row(target, row)
+        learn_row(tree, target, row)
 
 
 def _reading_stats(
-    tree: IHDRTree, samples: Any, rows: np.ndarray, inverse: np.ndarray, n_distinct: int
+    tree: Tree, samples: Any, rows: np.ndarray, inverse: np.ndarray, n_distinct: int
 ) -> dict[int, tuple[np.ndarray, np.ndarray, np.ndarray]]:
     """Per numeric dimension, the sum, least and greatest reading of each distinct row: readings
     matter to the paper's clusters (mean ± range); multi keeps bins only."""

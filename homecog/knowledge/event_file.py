@@ -3,7 +3,7 @@
 The whole file is read and checked before anything is stored: a wrong header, an unknown
 service or value, an unparsable row is one error naming the file, the line and the column, and
 nothing is learned from a file that is refused. Then every row is learned, in order, as a
-correction through the store — the same path as ``homecog correct --context`` and the HMI —
+correction through the knowledge core — the same path as ``homecog correct --context`` and the HMI —
 with ``batch`` corrections to a transaction: each batch is stored whole or not at all.
 
 A row's user is its ``user`` column where the file has one and the cell is not empty, else the
@@ -19,24 +19,17 @@ from pathlib import Path
 from typing import Any
 
 from homecog.errors import EvaluationError
-from homecog.home.codec import Point
 from homecog.home.model import Home
 from homecog.home.recent import RecentPast
 from homecog.home.scenario_file import load_scenarios
+from homecog.knowledge import core
+from homecog.knowledge.correction import Correction
 from homecog.knowledge.ihdr import IHDRTree
+from homecog.knowledge.store import Store
 from homecog.names import user_name_problem
 
 #: Corrections to a transaction.
 BATCH = 100
-
-
-@dataclass(frozen=True)
-class EventCorrection:
-    """One row of an event file: the context, the services wanted there, and by whom."""
-
-    point: Point
-    want: list[str]
-    user: str
 
 
 @dataclass
@@ -56,9 +49,10 @@ class EventsLearned:
         return {**asdict(self), "seconds": round(self.seconds, 3)}
 
 
-def read_corrections(path: Path, home: Home, user: str) -> list[EventCorrection]:
-    """Every row of an event file as a correction, all checked before any is learned; each
-    with the recent past of the household's stream, in the file's order, as a replay has it."""
+def read_corrections(path: Path, home: Home, user: str) -> list[Correction]:
+    """Every row of an event file as a correction of the whole set wanted there, all checked
+    before any is learned; each with the recent past of the household's stream, in the file's
+    order, as a replay has it. A user the home's household does not know refuses the file."""
     problem = user_name_problem(user)
     if problem is not None:
         raise EvaluationError(problem)
@@ -68,34 +62,36 @@ def read_corrections(path: Path, home: Home, user: str) -> list[EventCorrection]
     for r in load_scenarios(path, home, home, corrections=True):
         point = replace(r.point, recent=past.at(r.timestamp, r.context))
         past.learn(r.timestamp, r.context, r.truth)
-        out.append(
-            EventCorrection(point=point, want=sorted(r.truth, key=order.__getitem__), user=r.user or user)
-        )
+        who = r.user or user
+        if not home.household.knows(who):
+            raise EvaluationError(
+                f"{path.name}: user {who!r} is not one of the household ({home.household.names()})"
+            )
+        out.append(Correction.whole(who, point, sorted(r.truth, key=order.__getitem__)))
     return out
 
 
 def learn_corrections(
-    store: Any,
+    store: Store,
     tree: IHDRTree,
-    corrections: Sequence[EventCorrection],
+    corrections: Sequence[Correction],
     *,
     batch: int = BATCH,
     progress: Callable[[int, int], None] | None = None,
 ) -> EventsLearned:
-    """Learn the corrections in order, ``batch`` to a transaction (a :class:`Store`'s)."""
+    """Learn the corrections in order, ``batch`` to a transaction."""
     if batch < 1:
         raise ValueError(f"batch must be at least 1, got {batch}")
     start = time.perf_counter()
     out = EventsLearned(events=len(corrections))
     for first in range(0, len(corrections), batch):
         chunk = corrections[first : first + batch]
-        with store.batch(tree):
-            for c in chunk:
-                added, rejected = store.correct(tree, c.point, c.want, c.user)
-                out.added += len(added)
-                out.rejected += len(rejected)
-                out.changed += bool(added or rejected)
-                out.users[c.user] = out.users.get(c.user, 0) + 1
+        for outcome in core.correct_many(store, tree, chunk):
+            out.added += len(outcome.added)
+            out.rejected += len(outcome.rejected)
+            out.changed += bool(outcome.added or outcome.rejected)
+            user = outcome.correction.user
+            out.users[user] = out.users.get(user, 0) + 1
         out.batches += 1
         if progress:
             progress(first + len(chunk), len(corrections))

@@ -29,8 +29,8 @@ from homecog.knowledge.store import Store
 
 
 @dataclass(frozen=True)
-class Correction:
-    """One correction as the log has it."""
+class Logged:
+    """One correction as the log has it, with what it changed."""
 
     id: int
     at: float  # seconds since 1970, UTC
@@ -59,7 +59,7 @@ class History:
     """The latest corrections, oldest first, and how many the log holds in all."""
 
     total: int
-    corrections: list[Correction]
+    corrections: list[Logged]
 
 
 @dataclass(frozen=True)
@@ -100,7 +100,7 @@ def correction_history(store: Store, *, user: str | None = None, limit: int = 50
     for row in reversed(rows):
         payload = json.loads(row.payload)
         corrections.append(
-            Correction(
+            Logged(
                 id=row.id,
                 at=row.created_at.replace(tzinfo=UTC).timestamp(),
                 user=row.user or "",
@@ -120,8 +120,8 @@ def agreement(history: History) -> list[Agreement]:
     """Per correction in order: whether the robot had already proposed what the user wanted,
     and the running rate of that agreement.
 
-    >>> c = [Correction(i, 0.0, "kim", ["A"], [], []) for i in (1, 2)]
-    >>> [a.rate for a in agreement(History(2, [Correction(0, 0.0, "kim", ["A"], ["A"], []), *c]))]
+    >>> c = [Logged(i, 0.0, "kim", ["A"], [], []) for i in (1, 2)]
+    >>> [a.rate for a in agreement(History(2, [Logged(0, 0.0, "kim", ["A"], ["A"], []), *c]))]
     [0.0, 0.5, 0.6666666666666666]
     """
     out, agreed = [], 0

@@ -16,9 +16,14 @@ Two modes:
   that differs from it in one dimension, or starts a box. Numeric dimensions are kept as
   sets of bins.
 
-Corrections go into a per-user layer of clusters that add (+) or reject (−) a
-service where they match; the user's most specific matching cluster overrides the shared
-tree, so one user's corrections never change another's answers.
+Corrections go into a per-user layer (:mod:`homecog.knowledge.corrections`) that adds or
+rejects a service where the user's evidence says so, over the shared answer, so one user's
+corrections never change another's answers.
+
+The tree itself is plain data (:class:`~homecog.knowledge.tree.Tree`); learning is in
+:mod:`homecog.knowledge.update` and :mod:`homecog.knowledge.batch`, answering in
+:mod:`homecog.knowledge.lookup` and :mod:`homecog.knowledge.search`. This class puts them
+together with the users' layers as one learner.
 
 The learner speaks river's API:
 
@@ -43,8 +48,6 @@ The learner speaks river's API:
 
 from __future__ import annotations
 
-import copy
-import math
 from collections.abc import Iterator, Mapping, Sequence
 from typing import Any
 
@@ -53,27 +56,17 @@ import numpy as np
 from homecog.errors import ContextError
 from homecog.home.codec import Point, Space
 from homecog.home.model import Home
+from homecog.knowledge import lookup, search
 from homecog.knowledge.batch import learn_sample_set
-from homecog.knowledge.box_index import BoxIndex
+from homecog.knowledge.correction import Correction
 from homecog.knowledge.corrections import Example, UserLayers
-from homecog.knowledge.group_index import GroupIndex
-from homecog.knowledge.model import (
-    IDLE,
-    Cluster,
-    Condition,
-    Node,
-)
-from homecog.knowledge.search import TreeSearch
+from homecog.knowledge.model import IDLE, Cluster, Cognition, Node
 from homecog.knowledge.state import NodeState, TreeState, signature
-from homecog.knowledge.update import ClusterUpdates, SampleRow
-
-MODES = ("multi", "paper")
-#: Largest table (discrete points × service nodes) for which multi mode keeps a dense
-#: table of the responding cluster of every node at every point (int16: 256 MB at most).
-DENSE_LIMIT = 2**27
+from homecog.knowledge.tree import Tree
+from homecog.knowledge.update import SampleRow, learn_row
 
 
-class IHDRTree(ClusterUpdates, TreeSearch):
+class IHDRTree:
     """The knowledge tree of a home, with river's learner API.
 
     Parameters
@@ -86,78 +79,49 @@ class IHDRTree(ClusterUpdates, TreeSearch):
     """
 
     def __init__(self, home: Home, mode: str = "multi") -> None:
-        if mode not in MODES:
-            raise ValueError(f"mode must be one of {', '.join(MODES)}, got {mode!r}")
-        self.home = home
-        self.mode = mode
-        self._space = Space(home)
-        self._next_id = 0
-        self._seq = 0
-        self.root = self._node("root", "root", None)
-        self._categories: dict[str, Node] = {}
-        self._services: list[Node] = []
-        for i, service in enumerate(home.services):
-            self._services.append(self._node(service.name, "service", self._category(service.category), i))
-        self._idle = self._node(IDLE, "service", self._category(IDLE.lower()), len(home.services))
-        self._index: dict[int, BoxIndex] = {n.id: BoxIndex() for n in self._all_services()}
-        self._shared_version = 0  # changes with the shared clusters; the users' layers follow it
+        self.data = Tree.empty(home, mode)
         self._layers = UserLayers(
             home,
-            self._space,
+            self.data.space,
             shared=self._shared_services,
-            version=self._shared_state_version,
+            version=self.data.current_version,
             relevant=self._relevant_features,
         )
-        # _precedence[a, b]: how often a came before b in a learned sequence
-        self._precedence = np.zeros((len(home.services), len(home.services)), dtype=np.int64)
-        # multi mode: _dense[point, a] is the index in node a's clusters of the cluster that
-        # responds at that point (-1: none); built on demand, dropped when the tree changes
-        self._dense: np.ndarray | None = None
-        self._gindex: GroupIndex | bool | None = None  # large homes: see _group_index
-        self._before: list[set[int]] | None = None  # services that must precede each service
-        self._label_table: list[list[str]] | None = None  # see _labels
-        self._described: dict[tuple[Any, ...], dict[str, str]] = {}  # see describe
-        sizes = [len(d.values) for d in self._space.dims]
-        self._radices = tuple(sizes)
-        self._strides = tuple(math.prod(sizes[j + 1 :]) for j in range(len(sizes)))
-        points = math.prod(sizes)
-        self._dense_ok = mode == "multi" and points * (len(home.services) + 1) <= DENSE_LIMIT
-        self.n_experiences = 0
 
-    # -- structure ---------------------------------------------------------------------------
-    def _node(self, name: str, kind: str, parent: Node | None, service: int = -1) -> Node:
-        node = Node(id=self._next_id, name=name, kind=kind, parent=parent, service=service)
-        self._next_id += 1
-        if parent is not None:
-            parent.children.append(node)
-        return node
+    @property
+    def home(self) -> Home:
+        return self.data.home
 
-    def _category(self, name: str) -> Node:
-        if name not in self._categories:
-            self._categories[name] = self._node(name, "category", self.root)
-        return self._categories[name]
+    @property
+    def mode(self) -> str:
+        return self.data.mode
 
-    def _all_services(self) -> list[Node]:
-        return [*self._services, self._idle]
-
-    def _changed(self) -> None:
-        """Drop what is derived from the shared clusters (lookup tables); rebuilt on demand."""
-        self._dense = self._gindex = None
-        self._shared_version += 1
-
-    def _new_cluster(self, conditions: dict[int, Condition], **kw: Any) -> Cluster:
-        cluster = Cluster(id=self._next_id, conditions=conditions, seq=self._seq, **kw)
-        self._next_id += 1
-        self._seq += 1
-        return cluster
+    @property
+    def root(self) -> Node:
+        return self.data.root
 
     @property
     def space(self) -> Space:
-        return self._space
+        return self.data.space
+
+    @property
+    def n_samples(self) -> int:
+        """Samples the tree learned (a build's, single ones)."""
+        return self.data.n_samples
+
+    @property
+    def n_experiences(self) -> int:
+        """Experiences the tree learned: its samples and every user's corrections."""
+        return self.data.n_samples + sum(len(examples) for _, examples in self._layers.items())
 
     @property
     def users(self) -> list[str]:
         return self._layers.users
+
+    @property
+    def layers(self) -> UserLayers:
+        """Every user's corrections and what they learned."""
+        return self._layers
 
     def clone(self) -> IHDRTree:
         """A new, untrained tree with the same parameters."""
@@ -170,11 +134,32 @@ class IHDRTree(ClusterUpdates, TreeSearch):
         """Clusters in the shared tree (or, with ``user``, the corrections in that user's layer)."""
         if user is not None:
             return self._layers.n_examples(user)
-        return sum(len(n.clusters) for n in self.root.iter_dfs())
+        return sum(len(n.clusters) for n in self.data.nodes())
+
+    # -- answers ------------------------------------------------------------------------------
+    def explain_one(self, x: Mapping[str, object] | Point, user: str | None = None) -> Cognition:
+        """Services for a context, ordered by priority, with why (Algorithm 3); a scene says
+        which services it does the work of."""
+        return search.explain(self.data, self._layers, self.point(x), user)
+
+    def predict_one(self, x: Mapping[str, object] | Point, user: str | None = None) -> list[str]:
+        """The services the user needs in context ``x``, in priority order."""
+        return [node.name for node, _ in search.search(self.data, self._layers, self.point(x), user)[0]]
+
+    def describe(self, cluster: Cluster) -> dict[str, str]:
+        """A cluster's conditions as text, per related dimension."""
+        return search.describe(self.data, cluster)
+
+    def _shared_services(self, p: Point) -> frozenset[int]:
+        """The services the shared tree proposes at ``p`` (what a user's layer takes as prior)."""
+        return search.shared_services(self.data, self._layers, p)
+
+    def _relevant_features(self, a: int) -> frozenset[int]:
+        return lookup.relevant_features(self.data, a)
 
     # -- inputs ------------------------------------------------------------------------------
     def point(self, x: Mapping[str, object] | Point) -> Point:
-        return x if isinstance(x, Point) else self._space.point(x)
+        return x if isinstance(x, Point) else self.space.point(x)
 
     def _service_positions(self, names: Sequence[str]) -> list[int]:
         known = {s.name: i for i, s in enumerate(self.home.services)}
@@ -187,14 +172,14 @@ class IHDRTree(ClusterUpdates, TreeSearch):
 
     def _mask(self, names: object) -> int:
         if names is None:
-            return (1 << len(self._space)) - 1
+            return (1 << len(self.space)) - 1
         if isinstance(names, int):
             return names
         mask = 0
         for name in names:  # type: ignore[attr-defined]
-            if name not in self._space.index:
+            if name not in self.space.index:
                 raise ContextError(f"unknown feature or device {name!r}")
-            mask |= 1 << self._space.index[name]
+            mask |= 1 << self.space.index[name]
         return mask
 
     # -- learning ----------------------------------------------------------------------------
@@ -216,12 +201,12 @@ class IHDRTree(ClusterUpdates, TreeSearch):
         if not rows:
             rows = [(len(self.home.services), self._mask(relevant.get(IDLE)), 0)]
         for a, mask, pos in rows:
-            self._learn_row(a, SampleRow(mask, p.codes, p.readings, 1, float(pos)))
+            learn_row(self.data, a, SampleRow(mask, p.codes, p.readings, 1, float(pos)))
         for i, a in enumerate(services):
             for b in services[i + 1 :]:
-                self._precedence[a, b] += 1
-                self._before = None
-        self.n_experiences += 1
+                self.data.precedence[a, b] += 1
+                self.data.before = None
+        self.data.n_samples += 1
 
     def learn_many(self, samples: Any) -> None:
         """Learn a :class:`~homecog.knowledge.samples.SampleSet` at once.
@@ -231,8 +216,8 @@ class IHDRTree(ClusterUpdates, TreeSearch):
         group's samples over its classes of contexts are learned as boxes of the classes' values
         (multi), or first expanded to the home's contexts (paper, whose clusters keep readings).
         """
-        learn_sample_set(self, samples)
-        self.n_experiences += len(samples.codes)
+        learn_sample_set(self.data, samples)
+        self.data.n_samples += len(samples.codes)
 
     def correct_one(
         self,
@@ -250,13 +235,21 @@ class IHDRTree(ClusterUpdates, TreeSearch):
         the others keep what they had. ``weight``: how many corrections' worth it counts. It
         takes effect for that user's next cognition at once, as evidence for every service it
         concerns in the user's layer (:mod:`homecog.knowledge.corrections`); the shared
-        experience is not changed, so other users' answers stay as they were.
+        experience is not changed, so other users' answers stay as they were. The same as
+        :meth:`judge` and then :meth:`apply` of a :class:`Correction`.
         """
-        p = self.point(x)
-        wanted = self._service_positions(want)
-        about = None if concerns is None else frozenset(self._service_positions(concerns))
-        if about is not None and not about.issuperset(wanted):
-            raise ContextError("a correction of some services wants only services it concerns")
+        about = None if concerns is None else tuple(concerns)
+        c = Correction(user, self.point(x), tuple(want), about, weight=weight)
+        added, rejected = self.judge(c)
+        self.apply(c)
+        return list(added), list(rejected)
+
+    def judge(self, c: Correction) -> tuple[tuple[str, ...], tuple[str, ...]]:
+        """What correction ``c`` changes in its user's answer at its point: (added, rejected).
+        Changes nothing; :class:`ContextError` for an unknown service, or a scene named with a
+        service it does the work of."""
+        wanted = self._service_positions(c.want)
+        about = None if c.concerns is None else frozenset(self._service_positions(c.concerns))
         both = self._layers.covered(frozenset(wanted)).intersection(wanted)
         if both:
             names = self.home.service_names
@@ -265,13 +258,17 @@ class IHDRTree(ClusterUpdates, TreeSearch):
                 f"{names[scene]} does the work of {names[min(both)]}: a correction names the scene "
                 "or its device's own service, not both"
             )
-        predicted = self._service_positions(self.predict_one(p, user))
-        added = [a for a in wanted if a not in predicted]
-        rejected = [a for a in predicted if a not in wanted and (about is None or a in about)]
-        self._layers.add(user, p, frozenset(wanted), concerns=about, weight=weight)
-        self.n_experiences += 1
-        names = self.home.services
-        return [names[a].name for a in added], [names[a].name for a in rejected]
+        predicted = self._service_positions(self.predict_one(c.point, c.user))
+        names = self.home.service_names
+        added = tuple(names[a] for a in wanted if a not in predicted)
+        rejected = tuple(names[a] for a in predicted if a not in wanted and (about is None or a in about))
+        return added, rejected
+
+    def apply(self, c: Correction) -> None:
+        """Learn correction ``c`` (judged already: its names are the home's) into its user's layer."""
+        wanted = frozenset(self._service_positions(c.want))
+        about = None if c.concerns is None else frozenset(self._service_positions(c.concerns))
+        self._layers.add(c.user, c.point, wanted, concerns=about, weight=c.weight)
 
     # -- persistence (the store maps the state to rows and back) ------------------------------
     def to_state(self) -> TreeState:
@@ -292,10 +289,10 @@ class IHDRTree(ClusterUpdates, TreeSearch):
             ],
             shared=[(node.id, c) for node, c in self.shared_clusters()],
             users=dict(self._layers.items()),
-            precedence=self._precedence.tolist(),
-            next_id=self._next_id,
-            seq=self._seq,
-            n_experiences=self.n_experiences,
+            precedence=self.data.precedence.tolist(),
+            next_id=self.data.next_id,
+            seq=self.data.seq,
+            n_samples=self.n_samples,
         )
 
     @classmethod
@@ -311,15 +308,16 @@ class IHDRTree(ClusterUpdates, TreeSearch):
         for node_id, cluster in state.shared:
             node = nodes[node_id]
             node.clusters.append(cluster)
-            if tree.mode == "multi" and node.id in tree._index:
-                tree._index[node.id].add(cluster)
+            if tree.mode == "multi" and node.id in tree.data.index:
+                tree.data.index[node.id].add(cluster)
         for user, examples in state.users.items():
-            tree._layers.set_examples(user, examples)
+            tree.layers.set_examples(user, examples)
+        data = tree.data
         if state.precedence:
-            tree._precedence = np.array(state.precedence, dtype=np.int64)
-        tree._next_id = max(tree._next_id, state.next_id)
-        tree._seq = max(tree._seq, state.seq)
-        tree.n_experiences = state.n_experiences
+            data.precedence = np.array(state.precedence, dtype=np.int64)
+        data.next_id = max(data.next_id, state.next_id)
+        data.seq = max(data.seq, state.seq)
+        data.n_samples = state.n_samples
         return tree
 
     def user_examples(self, user: str) -> list[Example]:
@@ -332,19 +330,11 @@ class IHDRTree(ClusterUpdates, TreeSearch):
 
     def service_node(self, a: int) -> Node:
         """The node of service position ``a``."""
-        return self._services[a]
+        return self.data.services[a]
 
     def shared_clusters(self) -> Iterator[tuple[Node, Cluster]]:
-        for node in self.root.iter_dfs():
-            for cluster in node.clusters:
-                yield node, cluster
+        return self.data.shared_clusters()
 
     def signature(self) -> tuple[Any, ...]:
         """Everything the tree answers from, for comparing two trees (:func:`state.signature`)."""
         return signature(self.to_state())
-
-    def __getstate__(self) -> dict[str, Any]:
-        state = copy.copy(self.__dict__)
-        state["_dense"] = state["_gindex"] = None  # caches, rebuilt on demand
-        state["_before"] = None
-        return state

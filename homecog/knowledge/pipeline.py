@@ -18,6 +18,7 @@ from pathlib import Path
 
 from homecog.errors import QTableError
 from homecog.home.model import Home
+from homecog.knowledge import core
 from homecog.knowledge.database import redact
 from homecog.knowledge.ihdr import IHDRTree
 from homecog.knowledge.sample_log import SampleLog
@@ -122,7 +123,7 @@ def build_from(
     count = learn_policy(home, policy, tree, seed=seed, log=log)
     _say(progress, "storing the tree and the samples ...")
     seconds = time.perf_counter() - start
-    store.save_build(tree, log, seconds=seconds, source=source, policy=policy_file)
+    core.save_build(store, tree, log, seconds=seconds, source=source, policy=policy_file)
     return BuildResult(tree=tree, samples=count, seconds=time.perf_counter() - start)
 
 

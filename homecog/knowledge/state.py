@@ -34,7 +34,7 @@ class NodeState:
     position_sum: float
 
 
-COUNTERS = ("precedence", "next_id", "seq", "n_experiences")
+COUNTERS = ("precedence", "next_id", "seq", "n_samples")
 """The fields of a :class:`TreeState` that :meth:`TreeState.counters` gives, stored as one JSON
 object."""
 
@@ -51,7 +51,7 @@ class TreeState:
     precedence: list[list[int]] = field(default_factory=list)
     next_id: int = 0
     seq: int = 0
-    n_experiences: int = 0
+    n_samples: int = 0
 
     def counters(self) -> dict[str, Any]:
         """The precedence and counters as one JSON-ready mapping."""

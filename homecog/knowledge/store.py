@@ -23,8 +23,6 @@ The learner never touches SQL: this module maps the tree to rows and back; the l
 from __future__ import annotations
 
 import json
-import random
-import time
 from collections.abc import Iterator
 from contextlib import contextmanager
 from datetime import UTC, datetime
@@ -35,9 +33,8 @@ from sqlalchemy.engine import Connection, Engine
 from sqlalchemy.exc import DBAPIError, OperationalError, SQLAlchemyError
 
 from homecog.errors import ConflictError, NameProblemError, StoreError
-from homecog.home.codec import Point
 from homecog.home.model import Home
-from homecog.knowledge.before import Before
+from homecog.knowledge.corrections import Example
 from homecog.knowledge.database import (
     db_message,
     default_url,
@@ -47,7 +44,6 @@ from homecog.knowledge.database import (
     redact,
 )
 from homecog.knowledge.ihdr import IHDRTree
-from homecog.knowledge.kinds import EXPLICIT, Kind
 from homecog.knowledge.rows import (
     cluster_from_row,
     cluster_rows,
@@ -67,11 +63,10 @@ from homecog.knowledge.statements import (
     USER_VERSION,
     USER_VERSION_LOCKED,
 )
-from homecog.knowledge.store_log import BUILD_SAMPLES, StoreLog, replay
+from homecog.knowledge.store_log import BUILD_SAMPLES, StoreLog
 from homecog.names import user_name_problem
 
 SAMPLES_PER_ROW = 32768
-CONFLICT_RETRIES = 50  # attempts of a correction that the server aborts for a deadlock
 
 
 class Store(StoreLog):
@@ -92,8 +87,6 @@ class Store(StoreLog):
         self.engine = engine
         self._versions: dict[str, int] = {}
         self._known_users: set[str] = set()
-        self._batch: Connection | None = None  # the transaction corrections share (see batch)
-        self._before: Before | None = None  # what a batch's users had before it
         self._build = 0  # the build of the tree last loaded
 
     @classmethod
@@ -134,9 +127,6 @@ class Store(StoreLog):
 
     @contextmanager
     def _tx(self) -> Iterator[Connection]:
-        if self._batch is not None:  # inside batch(): its transaction
-            yield self._batch
-            return
         try:
             with self.engine.begin() as conn:
                 yield conn
@@ -150,26 +140,6 @@ class Store(StoreLog):
     def close(self) -> None:
         if self._own_engine:
             self.engine.dispose()
-
-    @contextmanager
-    def batch(self, tree: IHDRTree | None = None) -> Iterator[None]:
-        """Corrections made inside share one transaction: all of them are stored, or none; and
-        where none is, ``tree`` (the one they were made on) holds none of them either."""
-        if self._batch is not None:
-            raise StoreError("a batch of corrections is already open")
-        self._before = Before(tree)
-        try:
-            with self._tx() as conn:
-                self._batch = conn
-                try:
-                    yield
-                finally:
-                    self._batch = None
-        except BaseException:
-            self._before.restore(self._versions)
-            raise
-        finally:
-            self._before = None
 
     # -- reading --------------------------------------------------------------------------------
     def has_tree(self) -> bool:
@@ -227,27 +197,28 @@ class Store(StoreLog):
             self._build = home_row.build
             return tree
 
-    def refresh_user(self, tree: IHDRTree, user: str) -> None:
-        """Reload a user's layer when another process has corrected since it was read."""
+    def read_user(self, user: str) -> tuple[int, list[Example]]:
+        """A user's version and corrections as committed (what a tree should hold of them)."""
         with self._tx() as conn:
-            self._reload_user_if_stale(conn, tree, user, lock=False)
+            version = conn.execute(USER_VERSION, {"h": self.home.name, "u": user}).scalar_one_or_none()
+            return version or 0, self._examples(conn, user)
 
-    def _reload_user_if_stale(self, conn: Connection, tree: IHDRTree, user: str, *, lock: bool) -> int:
-        query = USER_VERSION_LOCKED if lock and conn.dialect.name != "sqlite" else USER_VERSION
-        version = conn.execute(query, {"h": self.home.name, "u": user}).scalar_one_or_none() or 0
-        if version != self._versions.get(user, 0):
-            rows = conn.execute(
-                select(ExperienceRow.payload)
-                .where(
-                    ExperienceRow.home == self.home.name,
-                    ExperienceRow.kind == "correction",
-                    ExperienceRow.user == user,
-                )
-                .order_by(ExperienceRow.id)
+    def _examples(self, conn: Connection, user: str) -> list[Example]:
+        rows = conn.execute(
+            select(ExperienceRow.payload)
+            .where(
+                ExperienceRow.home == self.home.name,
+                ExperienceRow.kind == "correction",
+                ExperienceRow.user == user,
             )
-            tree.set_user_examples(user, [example_from_payload(self.home, json.loads(p)) for (p,) in rows])
-            self._versions[user] = version
-        return version
+            .order_by(ExperienceRow.id)
+        )
+        return [example_from_payload(self.home, json.loads(p)) for (p,) in rows]
+
+    def holds(self, user: str, version: int) -> None:
+        """The tree this store serves holds ``user``'s corrections as of ``version``."""
+        self._versions[user] = version
+        self._known_users.add(user)
 
     # -- writing --------------------------------------------------------------------------------
     def save_build(
@@ -263,20 +234,16 @@ class Store(StoreLog):
         (``source``) and the Q tables (``policy``, the ``.npz`` bytes) it was built from.
 
         ``samples`` is a build's :class:`~homecog.knowledge.sample_log.SampleLog` (compact), or
-        one sample set stored with its codes and readings. Users' corrections already in the
-        log are replayed on the new tree, so a rebuild (another mode, a retrained Q table)
-        loses none of them. The samples replace those of the previous build in the log, so
-        building again from the same Q table and seed changes neither the log nor the tree.
-        A home stored from another home file (a store opened with ``replace``) is replaced
-        whole: its log, users and corrections go with it.
+        one sample set stored with its codes and readings. The users' corrections already in
+        the log are kept; :func:`homecog.knowledge.core.save_build` learns them into the new
+        tree first, so a rebuild (another mode, a retrained Q table) loses none of them. The
+        samples replace those of the previous build in the log, so building again from the
+        same Q table and seed changes neither the log nor the tree. A home stored from another
+        home file (a store opened with ``replace``) is replaced whole: its log, users and
+        corrections go with it.
         """
         h = self.home.name
-        with self._tx() as conn:
-            stored = conn.execute(select(HomeRow.content_hash).where(HomeRow.name == h)).scalar()
-        replaced = stored is not None and stored != self.home.content_hash
-        if not replaced:
-            for kind, user, payload in self._corrections():
-                replay(tree, kind, user, payload)
+        replaced = self.holds_other_home()
         with self._tx() as conn:
             now = datetime.now(UTC).replace(tzinfo=None)
             if replaced:
@@ -345,69 +312,35 @@ class Store(StoreLog):
 
             conn.execute(sqlite_insert(UserRow).values(values).on_conflict_do_nothing())
 
-    def correct(
-        self, tree: IHDRTree, point: Point, want: list[str], user: str, how: Kind | None = None
-    ) -> tuple[list[str], list[str]]:
-        """Apply and store a correction in one transaction; returns (added, rejected).
+    # -- a correction's transaction (the core runs it: :mod:`homecog.knowledge.core`) ------------
+    @contextmanager
+    def transaction(self) -> Iterator[Connection]:
+        """One transaction: committed when the block ends, rolled back when it raises
+        (:class:`ConflictError` where the server aborted it for a deadlock: run it again)."""
+        with self._tx() as conn:
+            yield conn
 
-        ``how``: where it came from (an explicit correction by default; one the robot saw the
-        household make by hand, or an undo of the robot's switch), which services it concerns
-        and its weight, logged with it (:class:`Kind`).
-
-        A transaction the server aborts for a deadlock between concurrent corrections
-        (MariaDB's locks on the users and clusters indexes) is run again.
-        """
-        if self._batch is not None:  # a conflict aborts the whole batch: nothing to retry here
-            return self._correct_once(tree, point, want, user, how or EXPLICIT)
-        for attempt in range(CONFLICT_RETRIES):
-            try:
-                return self._correct_once(tree, point, want, user, how or EXPLICIT)
-            except ConflictError:
-                if attempt == CONFLICT_RETRIES - 1:
-                    raise
-                time.sleep(random.uniform(0, 0.01 * (attempt + 1)))
-        raise AssertionError("unreachable")
-
-    def _correct_once(
-        self, tree: IHDRTree, point: Point, want: list[str], user: str, how: Kind
-    ) -> tuple[list[str], list[str]]:
+    def lock_user(self, conn: Connection, user: str) -> tuple[int, list[Example] | None]:
+        """Lock ``user``'s row for the transaction (``SELECT … FOR UPDATE``; SQLite's write lock)
+        and read their version; with it, their corrections as committed when another process has
+        corrected since this store's tree read them (else ``None``)."""
         problem = user_name_problem(user)  # a key of the database: every edge checked it already
         if problem is not None:
             raise NameProblemError(problem)
-        before = Before(tree)
-        before.keep(user, self._versions)
-        if self._before is not None:  # in a batch: as it was before the batch, if it fails
-            self._before.keep(user, self._versions)
-        try:
-            with self._tx() as conn:
-                if user not in self._known_users:  # a row, once: the lock the correction takes
-                    self._ensure_user(conn, user)
-                version = self._reload_user_if_stale(conn, tree, user, lock=True)
-                added, rejected = tree.correct_one(
-                    point, want, user, concerns=how.concerns, weight=how.weight
-                )
-                payload = {
-                    "context": tree.space.context(point),
-                    "codes": list(point.codes),
-                    "readings": list(point.readings),
-                    **({"recent": point.recent.as_dict()} if point.recent is not None else {}),
-                    **({"missing": sorted(point.missing)} if point.missing else {}),
-                    "want": want,
-                    "added": added,
-                    "rejected": rejected,
-                    **how.payload(),
-                }
-                keys = {"h": self.home.name, "u": user}
-                now = datetime.now(UTC).replace(tzinfo=None)
-                conn.execute(LOG_CORRECTION, {**keys, "t": now, "p": json.dumps(payload)})
-                conn.execute(BUMP_USER, keys)
-                conn.execute(BUMP_HOME, keys)  # servers holding this home's tree see it move
-        except BaseException:
-            before.restore(self._versions)  # the tree as it was: what is stored, and no more
-            raise
-        self._versions[user] = version + 1
-        self._known_users.add(user)
-        return added, rejected
+        if user not in self._known_users:  # a row, once: the lock the correction takes
+            self._ensure_user(conn, user)
+        query = USER_VERSION_LOCKED if conn.dialect.name != "sqlite" else USER_VERSION
+        version = conn.execute(query, {"h": self.home.name, "u": user}).scalar_one_or_none() or 0
+        stale = version != self._versions.get(user, 0)
+        return version, self._examples(conn, user) if stale else None
+
+    def log_correction(self, conn: Connection, user: str, payload: dict[str, Any]) -> None:
+        """Append a correction's row to the log and move its user's and home's versions on."""
+        keys = {"h": self.home.name, "u": user}
+        now = datetime.now(UTC).replace(tzinfo=None)
+        conn.execute(LOG_CORRECTION, {**keys, "t": now, "p": json.dumps(payload)})
+        conn.execute(BUMP_USER, keys)
+        conn.execute(BUMP_HOME, keys)  # servers holding this home's tree see it move
 
 
 def _keyed(rows: list[dict[str, Any]], home: str) -> list[dict[str, Any]]:

@@ -1,6 +1,7 @@
-"""Reading a home's experience log: the counts of its rows, the corrections to replay
-on a new build, and the tree rebuilt from the log alone, which must answer as the stored one;
-and whether a tree in memory is stale (the home's version) and bringing it up to date.
+"""Reading a home's experience log: the counts of its rows, the single samples and corrections
+in commit order and the last build's samples (what a tree rebuilt from the log alone learns,
+:func:`homecog.knowledge.core.rebuild`);
+and whether a tree in memory is stale (the home's version, the users corrected since).
 
 A part of :class:`~homecog.knowledge.store.Store`; every query is under the store's home.
 """
@@ -16,12 +17,11 @@ from sqlalchemy import func, select, text
 from sqlalchemy.engine import Connection, Engine
 
 from homecog.errors import StoreError
-from homecog.home.codec import Point
-from homecog.home.recent import Recent
 from homecog.knowledge import sample_log
+from homecog.knowledge.corrections import Example
 from homecog.knowledge.database import redact
-from homecog.knowledge.ihdr import IHDRTree
 from homecog.knowledge.rows import samples_from
+from homecog.knowledge.samples import SampleSet
 from homecog.knowledge.schema import Base, ClusterRow, ExperienceRow, HomeRow, NodeRow, UserRow
 
 if TYPE_CHECKING:
@@ -53,20 +53,22 @@ class StoreLog:
             ).first()
             return None if row is None else (row.version, row.build)
 
-    def refresh(self, tree: IHDRTree) -> IHDRTree:
-        """``tree`` brought up to the database: the users' layers that other processes corrected
-        since they were read, or the whole tree loaded again after another build."""
+    def stale_users(self) -> dict[str, tuple[int, list[Example]]] | None:
+        """The users whose corrections other processes changed since this store's tree read
+        them: their version and corrections as committed; ``None`` after another build (the
+        whole tree is then to be loaded again)."""
         with self._tx() as conn:
             build = conn.execute(select(HomeRow.build).where(HomeRow.name == self.home.name)).scalar()
-            if build == self._build:
-                rows = conn.execute(
-                    select(UserRow.name, UserRow.version).where(UserRow.home == self.home.name)
-                ).all()
-                for name, version in rows:
-                    if version != self._versions.get(name, 0):
-                        self._reload_user_if_stale(conn, tree, name, lock=False)  # type: ignore[attr-defined]
-                return tree
-        return self.load_tree()  # type: ignore[attr-defined]
+            if build != self._build:
+                return None
+            rows = conn.execute(
+                select(UserRow.name, UserRow.version).where(UserRow.home == self.home.name)
+            ).all()
+            return {
+                name: (version, self._examples(conn, name))  # type: ignore[attr-defined]
+                for name, version in rows
+                if version != self._versions.get(name, 0)
+            }
 
     def counts(self) -> dict[str, int]:
         """Rows of the home per table: nodes, clusters (shared and per user), experiences, users."""
@@ -116,7 +118,16 @@ class StoreLog:
         last = max((p["build"] for p in parts), default=None)
         return sum(p.get("count", 0) for p in parts if p["build"] == last)
 
-    def _corrections(self) -> list[tuple[str, str | None, dict[str, Any]]]:
+    def holds_other_home(self) -> bool:
+        """Whether the database holds this home's name for other content (another home file): a
+        store opened to replace it, whose next build replaces it whole."""
+        with self._tx() as conn:
+            stored = conn.execute(select(HomeRow.content_hash).where(HomeRow.name == self.home.name)).scalar()
+        return stored is not None and stored != self.home.content_hash
+
+    def singles(self) -> list[tuple[str, str | None, dict[str, Any]]]:
+        """Every single sample and correction of the log, ``(kind, user, payload)``, in the order
+        they were committed."""
         with self._tx() as conn:
             rows = conn.execute(
                 select(ExperienceRow.kind, ExperienceRow.user, ExperienceRow.payload)
@@ -125,42 +136,30 @@ class StoreLog:
             )
             return [(r.kind, r.user, json.loads(r.payload)) for r in rows]
 
-    def rebuild(self) -> IHDRTree:
-        """The tree rebuilt from the experience log alone: the last build's samples, then every
-        single sample and correction in the order they were committed."""
+    def last_build(self) -> tuple[str, Iterator[SampleSet]]:
+        """The mode of the last build and its samples as the log keeps them (made again from
+        the compact log part by part); :class:`StoreError` when the log holds none."""
         with self._tx() as conn:
             rows = conn.execute(
-                select(
-                    ExperienceRow.id,
-                    ExperienceRow.kind,
-                    ExperienceRow.user,
-                    ExperienceRow.payload,
-                    ExperienceRow.data,
-                )
-                .where(ExperienceRow.home == self.home.name)
+                select(ExperienceRow.payload, ExperienceRow.data)
+                .where(ExperienceRow.home == self.home.name, ExperienceRow.kind == "samples")
                 .order_by(ExperienceRow.id)
             ).all()
-        builds = [json.loads(r.payload)["build"] for r in rows if r.kind == "samples"]
-        if not builds:
+        parts = [(json.loads(r.payload), r.data) for r in rows]
+        if not parts:
             raise StoreError(f"database {redact(self.url)}: the log holds no samples; run homecog build")
-        last = max(builds)
-        parts = [r for r in rows if r.kind == "samples" and json.loads(r.payload)["build"] == last]
-        parts.sort(key=lambda r: json.loads(r.payload)["part"])
-        meta = json.loads(parts[0].payload)
-        tree = IHDRTree(self.home, mode=meta["mode"])
-        if meta.get("format") == sample_log.FORMAT:
-            logged = [(json.loads(r.payload), r.data) for r in parts]
-            try:
-                for samples in sample_log.regenerate(self.home, logged):
-                    tree.learn_many(samples)
-            except ValueError as e:
-                raise StoreError(f"database {redact(self.url)}: {e}") from None
-        else:
-            tree.learn_many(samples_from(self.home, [sample_log.unpack(r.data) for r in parts]))
-        for r in rows:
-            if r.kind in ("correction", "sample"):
-                replay(tree, r.kind, r.user, json.loads(r.payload))
-        return tree
+        last = max(meta["build"] for meta, _ in parts)
+        parts = sorted((p for p in parts if p[0]["build"] == last), key=lambda p: p[0]["part"])
+        return parts[0][0]["mode"], self._sample_sets(parts)
+
+    def _sample_sets(self, parts: list[tuple[dict[str, Any], bytes]]) -> Iterator[SampleSet]:
+        if parts[0][0].get("format") != sample_log.FORMAT:
+            yield samples_from(self.home, [sample_log.unpack(data) for _, data in parts])
+            return
+        try:
+            yield from sample_log.regenerate(self.home, parts)
+        except ValueError as e:
+            raise StoreError(f"database {redact(self.url)}: {e}") from None
 
     def drop_all(self) -> None:
         """Remove every table (tests use it to leave a server database clean)."""
@@ -174,24 +173,3 @@ def stored_homes(conn: Connection) -> Iterator[tuple[str, str, bool]]:
     rows = conn.execute(select(HomeRow.name, HomeRow.content_hash, HomeRow.built_at).order_by(HomeRow.name))
     for name, content_hash, built_at in rows:
         yield name, content_hash, built_at is not None
-
-
-def replay(tree: IHDRTree, kind: str, user: str | None, payload: dict[str, Any]) -> None:
-    """Apply a logged single sample or correction to ``tree`` again (rebuilds, a new build)."""
-    recent = payload.get("recent")
-    point = Point(
-        codes=tuple(payload["codes"]),
-        readings=tuple(payload["readings"]),
-        recent=None if recent is None else Recent.from_dict(recent),
-        missing=frozenset(payload.get("missing", ())),
-    )
-    if kind == "correction":
-        tree.correct_one(
-            point,
-            payload["want"],
-            user or "default",
-            concerns=payload.get("concerns"),
-            weight=payload.get("weight", 1),
-        )
-    else:
-        tree.learn_one(point, payload["services"], relevant=payload.get("relevant"))

@@ -5,19 +5,18 @@ dimension unrelated makes it unrelated for good; values collect; readings update
 range). ``multi`` mode: the node keeps boxes; a row joins a box that covers it, or merges with a
 box one dimension away (their union is a box), or starts a box.
 
-:class:`ClusterUpdates` is the half of :class:`~homecog.knowledge.ihdr.IHDRTree` that changes
-clusters; ``learn_one`` and ``learn_many`` there decide which rows to learn.
+Functions over the tree's data (:class:`~homecog.knowledge.tree.Tree`); ``learn_one`` and
+``learn_many`` of :class:`~homecog.knowledge.ihdr.IHDRTree` decide which rows to learn.
 """
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any, NamedTuple
+from typing import TYPE_CHECKING, NamedTuple
 
-from homecog.knowledge.model import Cluster, Condition, Node, Numeric, bits, box_size
+from homecog.knowledge.model import Condition, Node, Numeric, bits, box_size
 
 if TYPE_CHECKING:
-    from homecog.home.codec import Space
-    from homecog.knowledge.box_index import BoxIndex
+    from homecog.knowledge.tree import Tree
 
 
 class SampleRow(NamedTuple):
@@ -36,105 +35,85 @@ class SampleRow(NamedTuple):
     sets: dict[int, frozenset[int]] | None = None
 
 
-class ClusterUpdates:
-    """Algorithm 2 and the boxes, over the attributes an IHDRTree has."""
-
-    mode: str
-    _space: Space
-    _index: dict[int, BoxIndex]
-    _next_id: int
-    _seq: int
-    _shared_version: int
-
-    def _all_services(self) -> list[Node]:
-        raise NotImplementedError
-
-    def _new_cluster(self, conditions: dict[int, Condition], **kw: Any) -> Cluster:
-        raise NotImplementedError
-
-    def _changed(self) -> None:
-        raise NotImplementedError
-
-    def _learn_row(self, a: int, row: SampleRow) -> None:
-        """Learn a sample row into service ``a``."""
-        node = self._all_services()[a]
-        self._shared_version += 1  # what users' layers take as prior may change
+def learn_row(t: Tree, a: int, row: SampleRow) -> None:
+    """Learn a sample row into service ``a``."""
+    node = t.all_services()[a]
+    t.version += 1  # what users' layers take as prior may change
+    for target in (node, node.parent):
+        assert target is not None
+        target.count += row.n
+        target.position_sum += row.pos_sum
+    if t.mode == "paper":
         for target in (node, node.parent):
-            assert target is not None
-            target.count += row.n
-            target.position_sum += row.pos_sum
-        if self.mode == "paper":
-            for target in (node, node.parent):
-                self._algorithm2(target, row)  # type: ignore[arg-type]
-        else:
-            self._merge_box(node, row)
+            _algorithm2(t, target, row)  # type: ignore[arg-type]
+    else:
+        _merge_box(t, node, row)
 
-    def _algorithm2(self, node: Node, row: SampleRow) -> None:
-        """Algorithm 2, step 3: update the node's one cluster with a sample row."""
-        dims = self._space.dims
-        if not node.clusters:  # step 1: the first sample makes the cluster
-            conditions: dict[int, Condition] = {}
-            for j in range(len(dims)):
-                if row.mask >> j & 1:
-                    conditions[j] = self._numeric(j, row) if dims[j].numeric else frozenset([row.codes[j]])
-            node.clusters.append(self._new_cluster(conditions))
-        else:
-            cluster = node.clusters[0]
-            for j in list(cluster.conditions):
-                cond = cluster.conditions[j]
-                if not row.mask >> j & 1:  # step 3.3: unrelated in this sample: unrelated for good
-                    del cluster.conditions[j]
-                elif isinstance(cond, Numeric):  # step 3.4
-                    if row.stats is not None and j in row.stats:
-                        total, low, high = row.stats[j]
-                        cond.add(float(row.readings[j] or 0.0), row.n, total, low, high)
-                    else:
-                        cond.add(float(row.readings[j]))  # type: ignore[arg-type]
-                else:  # step 3.5
-                    cluster.conditions[j] = cond | {row.codes[j]}
-        node.clusters[0].count += row.n
 
-    @staticmethod
-    def _numeric(j: int, row: SampleRow) -> Numeric:
-        if row.stats is not None and j in row.stats:
-            total, low, high = row.stats[j]
-            return Numeric(count=row.n, total=float(total), low=float(low), high=float(high))
-        x = float(row.readings[j])  # type: ignore[arg-type]
-        return Numeric(count=1, total=x, low=x, high=x)
+def _algorithm2(t: Tree, node: Node, row: SampleRow) -> None:
+    """Algorithm 2, step 3: update the node's one cluster with a sample row."""
+    dims = t.space.dims
+    if not node.clusters:  # step 1: the first sample makes the cluster
+        conditions: dict[int, Condition] = {}
+        for j in range(len(dims)):
+            if row.mask >> j & 1:
+                conditions[j] = _numeric(j, row) if dims[j].numeric else frozenset([row.codes[j]])
+        node.clusters.append(t.new_cluster(conditions))
+    else:
+        cluster = node.clusters[0]
+        for j in list(cluster.conditions):
+            cond = cluster.conditions[j]
+            if not row.mask >> j & 1:  # step 3.3: unrelated in this sample: unrelated for good
+                del cluster.conditions[j]
+            elif isinstance(cond, Numeric):  # step 3.4
+                if row.stats is not None and j in row.stats:
+                    total, low, high = row.stats[j]
+                    cond.add(float(row.readings[j] or 0.0), row.n, total, low, high)
+                else:
+                    cond.add(float(row.readings[j]))  # type: ignore[arg-type]
+            else:  # step 3.5
+                cluster.conditions[j] = cond | {row.codes[j]}
+    node.clusters[0].count += row.n
 
-    def _merge_box(self, node: Node, row: SampleRow) -> None:
-        """Multi mode: join a covering box, merge with a box one dimension away, or start one."""
-        mask, codes, n, pos_sum, sets = row.mask, row.codes, row.n, row.pos_sum, row.sets or {}
-        index = self._index[node.id]
-        dims = bits(mask)
-        values = [sets.get(j) or frozenset([codes[j]]) for j in dims]
-        if sets:
-            hit = index.covering_box(mask, values)
-        else:
-            hit = index.covering(mask, tuple(codes[j] for j in dims))
-        if hit is not None:
-            hit.count += n
-            hit.position_sum += pos_sum
-            return
-        box = self._new_cluster(dict(zip(dims, values, strict=True)), count=n, position_sum=pos_sum)
-        index.point_to(box, box.conditions, mask)
-        while True:
-            keys = index.partner_keys(box, mask)
-            partner = index.partner(box, keys)
-            if partner is None:
-                break
-            index.unlink(partner)
-            node.clusters.remove(partner)
-            merged = {j: box.conditions[j] | partner.conditions[j] for j in box.conditions}  # type: ignore[operator]
-            # the union takes the partner's identity; of the two objects, the one with more
-            # points keeps them, and only the other's points are pointed at it
-            keep, other = (partner, box) if box_size(partner) >= box_size(box) else (box, partner)
-            index.point_to(keep, other.conditions, mask)
-            keep.id, keep.seq = partner.id, partner.seq
-            keep.conditions = merged
-            keep.count = box.count + partner.count
-            keep.position_sum = box.position_sum + partner.position_sum
-            box = keep
-        node.clusters.append(box)
-        index.link(box, keys)
-        self._changed()
+
+def _numeric(j: int, row: SampleRow) -> Numeric:
+    if row.stats is not None and j in row.stats:
+        total, low, high = row.stats[j]
+        return Numeric(count=row.n, total=float(total), low=float(low), high=float(high))
+    x = float(row.readings[j])  # type: ignore[arg-type]
+    return Numeric(count=1, total=x, low=x, high=x)
+
+
+def _merge_box(t: Tree, node: Node, row: SampleRow) -> None:
+    """Multi mode: join a covering box, merge with a box one dimension away, or start one."""
+    mask, codes, n, pos_sum, sets = row.mask, row.codes, row.n, row.pos_sum, row.sets or {}
+    index = t.index[node.id]
+    dims = bits(mask)
+    values = [sets.get(j) or frozenset([codes[j]]) for j in dims]
+    hit = index.covering_box(mask, values) if sets else index.covering(mask, tuple(codes[j] for j in dims))
+    if hit is not None:
+        hit.count += n
+        hit.position_sum += pos_sum
+        return
+    box = t.new_cluster(dict(zip(dims, values, strict=True)), count=n, position_sum=pos_sum)
+    index.point_to(box, box.conditions, mask)
+    while True:
+        keys = index.partner_keys(box, mask)
+        partner = index.partner(box, keys)
+        if partner is None:
+            break
+        index.unlink(partner)
+        node.clusters.remove(partner)
+        merged = {j: box.conditions[j] | partner.conditions[j] for j in box.conditions}  # type: ignore[operator]
+        # the union takes the partner's identity; of the two objects, the one with more
+        # points keeps them, and only the other's points are pointed at it
+        keep, other = (partner, box) if box_size(partner) >= box_size(box) else (box, partner)
+        index.point_to(keep, other.conditions, mask)
+        keep.id, keep.seq = partner.id, partner.seq
+        keep.conditions = merged
+        keep.count = box.count + partner.count
+        keep.position_sum = box.position_sum + partner.position_sum
+        box = keep
+    node.clusters.append(box)
+    index.link(box, keys)
+    t.changed()

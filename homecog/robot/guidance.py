@@ -26,11 +26,11 @@ from typing import Any
 
 from homecog.context import DeviceChange
 from homecog.errors import ContextError
-from homecog.home.codec import Space
+from homecog.home.codec import Point, Space
 from homecog.home.household import Household
 from homecog.home.model import Home
 from homecog.home.states import state_word
-from homecog.knowledge.kinds import Kind
+from homecog.knowledge.correction import Correction
 from homecog.robot.journal import Journal
 
 log = logging.getLogger("homecog.robot")
@@ -43,8 +43,10 @@ QUIET_SECONDS = 60.0
 #: a situation lived this long (seconds) without switching a device back says it was as wanted
 QUIET_SITUATION = 600.0
 
-#: learn(context, want, user, kind): apply and log a correction
-Learn = Callable[[Mapping[str, str], list[str], str, Kind], Any]
+#: learn(correction): commit and learn a correction
+Learn = Callable[[Correction], Any]
+#: the point of a context of the household's stream (its recent past included)
+PointOf = Callable[[Mapping[str, str]], Point]
 
 
 def switch_services(home: Home) -> dict[tuple[str, bool], str]:
@@ -65,13 +67,16 @@ def switch_services(home: Home) -> dict[tuple[str, bool], str]:
 class Guidance:
     """Turns a person's switches into corrections; counts what it refuses to learn from."""
 
-    def __init__(self, home: Home, household: Household, journal: Journal, learn: Learn) -> None:
+    def __init__(
+        self, home: Home, household: Household, journal: Journal, learn: Learn, point: PointOf | None = None
+    ) -> None:
         self.home = home
         self.household = household
         self.journal = journal
         self._learn = learn
-        self._services = switch_services(home)
         self._space = Space(home)
+        self._point = point or self._space.point
+        self._services = switch_services(home)
         self._n = len(home.features)
         self._last_at: float | None = None
         self._last_switch: dict[str, float] = {}  # device -> a person's latest switch of it
@@ -110,7 +115,7 @@ class Guidance:
             return "no_service"
         weight = self.household.weight("observed")
         note = {"device": change.device, "state": state_word(change.on)}
-        self._learn(before, [wanted], user, Kind.observed(wanted, weight=weight, **note))
+        self._learn(Correction.observed(user, self._point(before), wanted, weight=weight, **note))
         self.counts["observed"] += 1
         return "observed"
 
@@ -122,7 +127,7 @@ class Guidance:
             name for (device, on), name in self._services.items() if (context.get(device) == "on") != on
         ]
         if services:  # one correction's worth, however much a switch is worth
-            self._learn(context, [], user, Kind("observed", services, 1, {"quiet": True}))
+            self._learn(Correction.lived(user, self._point(context), services))
             self.counts["quiet"] += 1
         return services
 
@@ -135,7 +140,7 @@ class Guidance:
         weight = self.household.weight("undo")
         for service in action.services:
             note = {"action": action.id, "by": "hmi"}
-            self._learn(action.context, [], user, Kind.undo(service, weight=weight, **note))
+            self._learn(Correction.undo(user, self._point(action.context), service, weight=weight, **note))
         self.counts["undo"] += 1
         return list(action.services)
 
@@ -143,7 +148,7 @@ class Guidance:
         weight = self.household.weight("undo")
         for service in self._services_of(action.services, change.device):
             note = {"action": action.id, "device": change.device, "by": by}
-            self._learn(action.context, [], user, Kind.undo(service, weight=weight, **note))
+            self._learn(Correction.undo(user, self._point(action.context), service, weight=weight, **note))
         action.undone[change.device] = by  # once learned
         self.counts["undo"] += 1
         return "undo"

@@ -29,12 +29,13 @@ import orjson
 from homecog.context import ContextSource, DeviceChange, LivingSource, SettableSource
 from homecog.context.simulated import SimulatedHome
 from homecog.errors import ContextError, FixedContextError, StoreError
-from homecog.home.codec import Space, json_context, parse_services
+from homecog.home.codec import Point, Space, json_context
 from homecog.home.household import Household
 from homecog.home.model import Home, format_number
 from homecog.home.states import state_word
+from homecog.knowledge import core
+from homecog.knowledge.correction import Correction, Outcome
 from homecog.knowledge.ihdr import IHDRTree
-from homecog.knowledge.kinds import Kind
 from homecog.knowledge.store import Store
 from homecog.planning import Acting
 from homecog.robot.actor import Actor
@@ -83,7 +84,7 @@ class Runtime:
         self.holds = Holds(self.home, hold=self.household.hold)
         self.pacing = Pacing(self.home)
         self.journal = Journal()
-        self.guidance = Guidance(self.home, self.household, self.journal, self._learn)
+        self.guidance = Guidance(self.home, self.household, self.journal, self._learn, self._point_now)
         body = self.robot if isinstance(self.source, SimulatedHome) and self.home.layout is not None else None
         self.actor = Actor(
             self.home,
@@ -144,34 +145,30 @@ class Runtime:
             answer = self.tree.explain_one(point, user=user)
         return orjson.dumps(answer)
 
-    def correct(
-        self, context: Mapping[str, object], want: list[str], user: str, concerns: list[str] | None = None
-    ) -> dict[str, Any]:
-        """Learn and store an explicit correction; the store's log keeps it (and the history).
-        ``want`` is the whole set wanted, or with ``concerns`` which of those services are
-        (the others keep what they had)."""
-        point = self.space.point(context)
-        wanted = parse_services(want, self.home)
-        how = Kind(concerns=concerns) if concerns is not None else None
+    def correct(self, c: Correction) -> dict[str, Any]:
+        """Learn and store an explicit correction (the knowledge core commits it, then learns
+        it); the store's log keeps it (and the history). Returns what it stored and changed."""
+        if not self.household.knows(c.user):
+            raise ContextError(f"user {c.user!r}: not one of the household ({self.household.names()})")
         with self.lock:
-            added, rejected = self.store.correct(self.tree, point, wanted, user, how)
+            outcome = core.correct(self.store, self.tree, c)
         experiences = self.store.experience_count()  # outside the lock: cognition need not wait
-        event = {"user": user, "want": wanted, "added": added, "rejected": rejected, "kind": "explicit"}
-        self.publish("correction", {**event, **({"concerns": concerns} if concerns is not None else {})})
-        return {"added": added, "rejected": rejected, "experiences": experiences, "user": user}
+        self.publish("correction", _event(outcome))
+        return {**outcome.as_dict(), "experiences": experiences}
 
-    def _learn(self, context: Mapping[str, str], want: list[str], user: str, how: Kind) -> None:
-        """A correction the household's hands made (observed, undo): learned and logged, with
-        the recent past of its moment; a person's switch is a moment of the stream."""
-        point = replace(self.space.point(context), recent=self.moments.recent(context))
-        if how.kind == "observed" and want:
-            self.moments.lived(context, want)
+    def _learn(self, c: Correction) -> None:
+        """A correction the household's hands made (observed, undo): learned and logged; a
+        person's switch is a moment of the stream."""
+        if c.kind == "observed" and c.want:
+            self.moments.lived(self.space.context(c.point), list(c.want))
         with self.lock:
-            added, rejected = self.store.correct(self.tree, point, want, user, how)
-        log.info("learned %s for %s: %s wanted %s", how.kind, user, ", ".join(how.concerns or ()), bool(want))
-        self.publish(
-            "correction", {"user": user, "want": want, "added": added, "rejected": rejected, "kind": how.kind}
-        )
+            outcome = core.correct(self.store, self.tree, c)
+        log.info("learned %s for %s: %s", c.kind, c.user, c.says())
+        self.publish("correction", _event(outcome))
+
+    def _point_now(self, context: Mapping[str, str]) -> Point:
+        """A context of the household's stream as a point, with the recent past of its moment."""
+        return replace(self.space.point(context), recent=self.moments.recent(context))
 
     def plan(self, services: list[str], context: Mapping[str, object] | None) -> dict[str, Any]:
         """The services decomposed into robot actions, in the given order, and the plan carried
@@ -374,3 +371,15 @@ class Runtime:
                 log.exception("a context that does not fit the home")
                 return
         self.bus.send(kind, data)
+
+
+def _event(outcome: Outcome) -> dict[str, Any]:
+    """A correction as the live event stream tells it."""
+    c = outcome.correction
+    event = {
+        "user": c.user,
+        "want": list(c.want),
+        "added": list(outcome.added),
+        "rejected": list(outcome.rejected),
+    }
+    return {**event, "kind": c.kind, **({"concerns": list(c.concerns)} if c.concerns is not None else {})}

@@ -174,11 +174,20 @@ class CognizeOut(BaseModel):
     explanations: list[ExplanationOut]
 
 
+class StoredCorrection(BaseModel):
+    kind: str = Field(description="`explicit` (a user said it), `observed` (a switch by hand) or `undo`.")
+    want: list[str] = Field(description="The services wanted.")
+    concerns: list[str] | None = Field(description="The services it speaks of; null: every service.")
+
+
 class CorrectionOut(BaseModel):
     added: list[str] = Field(description="Wanted services the robot had not proposed.")
     rejected: list[str] = Field(description="Proposed services the user did not want.")
     experiences: int = Field(description="Experiences in the log now.")
     user: str
+    number: int = Field(description="The user's corrections stored, this one included.")
+    stored: StoredCorrection = Field(description="What was stored, whatever the robot had proposed.")
+    says: str = Field(description="What was stored, in words.")
 
 
 class ActionNode(BaseModel):

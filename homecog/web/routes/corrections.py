@@ -13,6 +13,8 @@ from typing import Any
 from fastapi import APIRouter, Request, Response
 from fastapi.routing import APIRoute
 
+from homecog.home.codec import parse_services
+from homecog.knowledge.correction import Correction
 from homecog.web.deps import RuntimeDep
 from homecog.web.errors import responses
 from homecog.web.models import CorrectionOut, HomeModels
@@ -62,10 +64,13 @@ def router(models: HomeModels) -> APIRouter:
         each added or rejected (`change`), every other service keeping what it had. The robot
         learns at once, for that user, and the experience log keeps it. 503 when the knowledge
         database cannot be used."""
+        point = runtime.space.point(body.context)
         if "change" in body.model_fields_set:
             adds = [s for s, verdict in body.change.items() if verdict == "add"]
-            concerns = adds + [s for s, verdict in body.change.items() if verdict == "reject"]
-            return CorrectionOut(**runtime.correct(body.context, adds, body.user, concerns))
-        return CorrectionOut(**runtime.correct(body.context, body.want, body.user))
+            rejects = [s for s, verdict in body.change.items() if verdict == "reject"]
+            c = Correction.change(body.user, point, add=adds, reject=rejects)
+        else:
+            c = Correction.whole(body.user, point, parse_services(body.want, runtime.home))
+        return CorrectionOut(**runtime.correct(c))
 
     return r

@@ -1,0 +1,163 @@
+"""The knowledge core: a correction as one unit of work.
+
+Every edge (the HTTP API, ``homecog correct``, an event file, the running robot) builds a
+:class:`~homecog.knowledge.correction.Correction` and hands it here unchanged. :func:`correct`
+runs one transaction: it locks the user's row, brings the tree's copy of that user's corrections
+up to what is committed (another process may have corrected meanwhile), judges the correction
+on the tree (what it adds and rejects; nothing changes), writes its row, and commits. Only then
+is it applied to the tree. A failed write leaves the tree as it was: nothing to undo.
+
+The store persists rows and reads them; it never drives the learner. The tree learns; it never
+touches SQL. This module is where the two meet: corrections, a build stored with the log's
+corrections learned into it (:func:`save_build`), the tree made again from the log alone
+(:func:`rebuild`), and a tree brought up to what other processes committed (:func:`refresh`).
+
+>>> from homecog.home import load_home
+>>> from homecog.knowledge.ihdr import IHDRTree
+>>> from homecog.knowledge.store import Store
+>>> home = load_home("paper")
+>>> store = Store.open("sqlite://", home)
+>>> tree = IHDRTree(home)
+>>> point = tree.space.point({"time": "07:00", "temperature": 25, "illumination": 100,
+...     "location": "bed", "posture": "lie", "behavior": "sleep", "window": "off", "curtain": "off",
+...     "tv_living": "off", "tv_bedroom": "off", "ac_living": "off", "ac_bedroom": "off",
+...     "lamp": "off", "ceiling_light": "off"})
+>>> outcome = correct(store, tree, Correction.change("kim", point, add=["SendDrinks"]))
+>>> outcome.number, outcome.added, tree.predict_one(point, "kim")
+(1, ('SendDrinks',), ['SendDrinks'])
+>>> correct(store, tree, Correction.change("kim", point, add=["Fly"]))
+Traceback (most recent call last):
+...
+homecog.errors.ContextError: unknown service 'Fly'; expected some of ...
+>>> tree.n_clusters("kim"), store.read_user("kim")[0]   # nothing stored, nothing learned
+(1, 1)
+"""
+
+from __future__ import annotations
+
+import random
+import time
+from collections.abc import Iterable, Sequence
+from typing import Any
+
+from homecog.errors import ConflictError
+from homecog.home.codec import Point
+from homecog.home.recent import Recent
+from homecog.knowledge.correction import Correction, Outcome
+from homecog.knowledge.ihdr import IHDRTree
+from homecog.knowledge.sample_log import SampleLog
+from homecog.knowledge.samples import SampleSet
+from homecog.knowledge.store import Store
+
+#: attempts of a transaction that the server aborts for a deadlock between concurrent corrections
+CONFLICT_RETRIES = 50
+
+
+def correct(store: Store, tree: IHDRTree, c: Correction) -> Outcome:
+    """Commit correction ``c`` to the log, then learn it into ``tree``. A transaction the server
+    aborts for a deadlock (MariaDB's locks on the users and experiences indexes) runs again."""
+    for attempt in range(CONFLICT_RETRIES):
+        try:
+            with store.transaction() as conn:
+                version = _up_to_date(store, tree, conn, c.user)
+                added, rejected = tree.judge(c)
+                store.log_correction(conn, c.user, c.row(tree.space.context(c.point), added, rejected))
+            break
+        except ConflictError:
+            if attempt == CONFLICT_RETRIES - 1:
+                raise
+            time.sleep(random.uniform(0, 0.01 * (attempt + 1)))
+    tree.apply(c)
+    store.holds(c.user, version + 1)
+    return Outcome(c, tree.n_clusters(c.user), added, rejected)
+
+
+def correct_many(store: Store, tree: IHDRTree, corrections: Sequence[Correction]) -> list[Outcome]:
+    """Corrections in one transaction, in order: all of them are stored and learned, or none.
+
+    Each is judged on the tree that holds the ones before it, so they are learned as they are
+    judged; where the transaction fails, the tree's copy of their users is read again from what
+    is committed (what the database holds is what memory holds)."""
+    out: list[Outcome] = []
+    try:
+        with store.transaction() as conn:
+            for c in corrections:
+                version = _up_to_date(store, tree, conn, c.user)
+                added, rejected = tree.judge(c)
+                store.log_correction(conn, c.user, c.row(tree.space.context(c.point), added, rejected))
+                tree.apply(c)
+                store.holds(c.user, version + 1)
+                out.append(Outcome(c, tree.n_clusters(c.user), added, rejected))
+    except BaseException:
+        reload_users(store, tree, {c.user for c in corrections})
+        raise
+    return out
+
+
+def reload_users(store: Store, tree: IHDRTree, users: Iterable[str]) -> None:
+    """The tree's copy of ``users``' corrections made again from what is committed."""
+    for user in sorted(users):
+        version, examples = store.read_user(user)
+        tree.set_user_examples(user, examples)
+        store.holds(user, version)
+
+
+def refresh(store: Store, tree: IHDRTree) -> IHDRTree:
+    """``tree`` brought up to the database: the users another process corrected since it was
+    read, or the whole tree loaded again after another build."""
+    stale = store.stale_users()
+    if stale is None:
+        return store.load_tree()
+    for user, (version, examples) in stale.items():
+        tree.set_user_examples(user, examples)
+        store.holds(user, version)
+    return tree
+
+
+def save_build(store: Store, tree: IHDRTree, samples: SampleSet | SampleLog, **stored: Any) -> None:
+    """Store a freshly built tree (:meth:`Store.save_build`, ``stored`` its other arguments),
+    the single samples and corrections of the log learned into it first, so that a new build
+    (another mode, a retrained Q table) loses none of them; a home stored from another home
+    file is replaced whole, its log with it."""
+    if not store.holds_other_home():
+        for kind, user, payload in store.singles():
+            replay(tree, kind, user, payload)
+    store.save_build(tree, samples, **stored)
+
+
+def rebuild(store: Store) -> IHDRTree:
+    """The tree made again from the experience log alone: the last build's samples, then every
+    single sample and correction in the order they were committed. It answers as the stored
+    tree does (tests check it)."""
+    mode, parts = store.last_build()
+    tree = IHDRTree(store.home, mode=mode)
+    for samples in parts:
+        tree.learn_many(samples)
+    for kind, user, payload in store.singles():
+        replay(tree, kind, user, payload)
+    return tree
+
+
+def replay(tree: IHDRTree, kind: str, user: str | None, payload: dict[str, Any]) -> None:
+    """Learn a logged single sample or correction into ``tree`` again."""
+    if kind == "correction":
+        tree.apply(Correction.from_row(user, payload))
+        return
+    recent = payload.get("recent")
+    point = Point(
+        codes=tuple(payload["codes"]),
+        readings=tuple(payload["readings"]),
+        recent=None if recent is None else Recent.from_dict(recent),
+        missing=frozenset(payload.get("missing", ())),
+    )
+    tree.learn_one(point, payload["services"], relevant=payload.get("relevant"))
+
+
+def _up_to_date(store: Store, tree: IHDRTree, conn: object, user: str) -> int:
+    """Lock ``user`` for the transaction; their corrections in ``tree`` made again where another
+    process has committed some since. Returns the user's version."""
+    version, examples = store.lock_user(conn, user)  # type: ignore[arg-type]
+    if examples is not None:
+        tree.set_user_examples(user, examples)
+        store.holds(user, version)
+    return version
