@@ -22,9 +22,8 @@ fewer atoms and enough examples answers, else the shared tree.
 Thresholds: for each numeric feature, the reading that best separates the user's wanted and
 unwanted examples (Gini) is added to the home's bin edges, rounded to the roundest number
 between the two readings it separates (nearest their midpoint), so the user's "fan from 23 °C"
-becomes a cut at 23.
-Thresholds are chosen again each time the evidence has doubled, and the examples they move
-recounted.
+becomes a cut at 23. Thresholds are chosen again each time the evidence has doubled, and the
+examples they move recounted.
 
 >>> learner = ServiceLearner(n_atoms=2, numeric={0: (25.0, 30.0)}, order=2)
 >>> for t, y in [(20.0, False), (22.0, False), (23.5, True), (24.0, True), (26.0, True), (21.0, False)]:
@@ -47,6 +46,7 @@ from dataclasses import dataclass
 from homecog.knowledge.cuts import best_cut, kt_share, loo_loss, widened
 from homecog.knowledge.keys import Atom, Decision, Key, Recent, cell_of, keys_of, sign_of
 from homecog.knowledge.locality import Hull
+from homecog.knowledge.mixture import mixed
 
 #: the fewest examples a cell of a key with fewer atoms must hold to answer for an empty one
 BACKOFF = 5
@@ -356,35 +356,10 @@ class ServiceLearner:
         return [i for i in range(len(self.keys)) if i not in self._recent_keys]
 
     def _mixed(self, atoms: tuple[Atom, ...], threshold: float, *, snapshot: bool) -> Decision:
-        """In a stream: the probability that the service is wanted, averaged over the keys by
-        their posterior weights, each key saying its cell's share (with half an example of each
-        label). A key whose cell here holds no example has nothing to say and sleeps: the keys
-        that know the cell share the weight, in proportion to theirs (sleeping experts, Freund
-        et al., "Using and combining predictors that specialize", STOC 1997), so a key that
-        never saw this moment does not pull the answer to ½; where no key knows it (no
-        example yet), ½. The key of the most weight among those awake and its cell explain it."""
-        tables, cell_of, preq = self._tables, self._cell, self._preq
+        """In a stream: the keys' cells mixed by their posterior weights
+        (:mod:`homecog.knowledge.mixture`)."""
         ranked = self._ranked(snapshot)
-        first, explain, total, share = 0.0, None, 0.0, 0.0
-        for k, i in enumerate(ranked):
-            # the keys left weigh at most exp(first − their loss) each: once all of them together
-            # could not move the answer by 10⁻⁹, they are not read
-            if explain is not None and (len(ranked) - k) * math.exp(first - preq[i] + 1e-6) < 1e-9 * total:
-                break
-            counts = tables[i].get(cell_of[i](atoms))
-            if counts is None:
-                continue
-            if explain is None:
-                first, explain = preq[i], (i, counts)
-            w = math.exp(first - preq[i])
-            total += w
-            share += w * kt_share(counts)
-        if explain is None:
-            return Decision(sign_of(0.5, threshold, 0), (), (), 0, 0, threshold)
-        i, (p, n, last) = explain
-        share /= total
-        sign = sign_of(share, threshold, last)
-        return Decision(sign, self.keys[i], cell_of[i](atoms), p, n, threshold, share)
+        return mixed(self.keys, self._tables, self._cell, self._preq, ranked, atoms, threshold)
 
     def _ranked(self, snapshot: bool) -> list[int]:
         """The keys a stream's answer weighs, the most weight first (least prequential loss; ties:
