@@ -43,6 +43,8 @@ import math
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 
+import numpy as np
+
 from homecog.knowledge.cuts import best_cut, kt_share, loo_loss, widened
 from homecog.knowledge.keys import Atom, Decision, Key, Recent, cell_of, keys_of, sign_of
 from homecog.knowledge.locality import Hull
@@ -134,6 +136,8 @@ class ServiceLearner:
         # closed loop, keying them on it raised the household's own switches)
         self._partial_keys = [i for i in self._shared_keys if i not in self._recent_keys]
         self._prior_rank = [(-len(self.prior.intersection(k)), len(set(k) - self.prior)) for k in self.keys]
+        self._all_keys = np.arange(len(self.keys))
+        self._partial_array = np.array(self._partial_keys, dtype=np.intp)
 
     def _start_recent(self) -> None:
         """The recent past's keys join, with every example so far counted in them."""
@@ -279,10 +283,11 @@ class ServiceLearner:
         (ties: more atoms of the prior, fewer others, then the first)."""
         if self._best is None:
             losses = self._preq if self.streaming else self._loo
-            rounded = self._rounded = [round(loss, 6) for loss in losses]
-            candidates = range(len(self.keys)) if self.streaming else self._partial_keys
-            least = min(rounded[i] for i in candidates)
-            tied = (i for i in candidates if rounded[i] == least)
+            rounded = np.round(np.array(losses), 6)
+            self._rounded = rounded.tolist()
+            candidates = self._all_keys if self.streaming else self._partial_array
+            among = rounded[candidates]
+            tied = candidates[among == among.min()].tolist()
             self._best = min(tied, key=self._prior_rank.__getitem__)
         return self.keys[self._best]
 
@@ -332,9 +337,8 @@ class ServiceLearner:
         readings: Sequence[float | None],
         atoms: tuple[Atom, ...],
     ) -> bool:
-        """Whether a context is within the hull of the examples of key ``i``'s ``cell`` that
-        say ``wanted`` (:mod:`homecog.knowledge.locality`): an answer that departs from the
-        shared knowledge holds only there."""
+        """Whether a context is within the hull of the examples of key ``i``'s ``cell`` that say
+        ``wanted`` (:mod:`homecog.knowledge.locality`), where a departing answer holds."""
         n_context = self.n_atoms - 1 - self.n_recent
         hull = self._hulls.get((i, cell, wanted))
         if hull is None:
@@ -349,8 +353,7 @@ class ServiceLearner:
         return hull.holds(readings, atoms[:n_context])
 
     def _candidates(self, snapshot: bool) -> range | list[int]:
-        """The keys a stream's answer weighs: every key, or for a ``snapshot`` (a context
-        without its recent past) the keys of the context alone."""
+        """The keys a stream's answer weighs: every key, or the context's alone (a snapshot)."""
         if not snapshot:
             return range(len(self.keys))
         return [i for i in range(len(self.keys)) if i not in self._recent_keys]
@@ -388,11 +391,8 @@ class ServiceLearner:
 
     def members(self, decision: Decision) -> list[tuple[int, bool]]:
         """The examples in a decision's cell: their ids and labels."""
-        return [
-            (self._examples[i][4], self._examples[i][2])
-            for i, atoms in enumerate(self._atoms)
-            if tuple(atoms[k] for k in decision.key) == decision.cell
-        ]
+        cell, pairs = self._cell[self._index[decision.key]], zip(self._examples, self._atoms, strict=True)
+        return [(ex[4], ex[2]) for ex, atoms in pairs if cell(atoms) == decision.cell]
 
     def interval(self, decision: Decision, j: int) -> tuple[float, float]:
         """The interval of numeric feature ``j`` in a decision's cell, widened over neighbouring
