@@ -210,3 +210,41 @@ def test_the_schema_takes_a_correction_exactly_when_the_model_does(contract, bod
     except ValidationError:
         taken = False
     assert taken == schema.is_valid(body), body
+
+
+@pytest.mark.parametrize(
+    ("headers", "detail"),
+    [
+        (
+            {"Origin": "https://evil.example"},
+            "a request from https://evil.example may not change anything here",
+        ),
+        ({"Sec-Fetch-Site": "cross-site"}, "a cross-site request may not change anything here"),
+        (
+            {"Sec-Fetch-Site": "same-site", "Origin": "http://testserver"},
+            "a same-site request may not change",
+        ),
+        ({"Origin": "null"}, "a request from null may not change anything here"),
+    ],
+)
+def test_another_site_can_change_nothing_through_a_browser(client, runtime, headers, detail):
+    """A page elsewhere cannot make the household's browser correct, undo or set the context
+    (on 127.0.0.1 no token is asked); reading is not concerned, nor clients that are not browsers."""
+    user = f"eve{sorted(headers.values())[0][:9]}"  # the store is shared: a user per case
+    before = runtime.store.counts()
+    form = {"context": json.dumps(WORK), "want": "RadioOn", "user": user}
+    for r in (
+        client.post(
+            "/api/corrections", json={"context": WORK, "want": ["RadioOn"], "user": user}, headers=headers
+        ),
+        client.post("/api/corrections", data=form, headers=headers),  # a plain form post
+        client.post("/api/actions/1/undo", headers=headers),
+        client.post("/api/context", json={"activity": "relax"}, headers=headers),
+    ):
+        assert r.status_code == 403 and r.json()["detail"].startswith(detail), r.text
+    assert runtime.store.counts() == before and user not in runtime.tree.users
+    assert client.get("/api/history", headers=headers).status_code == 200
+    own = {"Origin": "http://testserver", "Sec-Fetch-Site": "same-origin"}
+    body = {"context": WORK, "want": ["RadioOn"], "user": user}
+    assert client.post("/api/corrections", json=body, headers=own).status_code == 200
+    assert client.post("/api/corrections", json=body).status_code == 200  # a script: no Origin

@@ -35,6 +35,7 @@ from starlette.types import ASGIApp
 
 from homecog.robot.runtime import Runtime
 from homecog.web import errors
+from homecog.web.cross_site import CrossSiteGuard
 from homecog.web.deps import require_token, require_token_or_query
 from homecog.web.fastpath import BodyLimit, CognizeFastPath
 from homecog.web.models import HomeModels
@@ -105,9 +106,8 @@ def create_app(runtime: Runtime, settings: Settings | None = None, *, fleet: boo
         app.include_router(make(models), **guarded)
     app.include_router(history.router, **guarded)
     if fleet:
-        return BodyLimit(
-            CognizeFastPath(app, runtime, models.cognize_in, settings.token), limit=settings.max_body
-        )
+        fast = CognizeFastPath(app, runtime, models.cognize_in, settings.token)
+        return CrossSiteGuard(BodyLimit(fast, limit=settings.max_body))
     app.include_router(source.router, **guarded)
     app.include_router(actions.router, **guarded)
     app.include_router(session.router, **guarded)
@@ -119,7 +119,7 @@ def create_app(runtime: Runtime, settings: Settings | None = None, *, fleet: boo
     app.include_router(events.router, **guarded)
     # in front of FastAPI's own middleware stack, whose error middleware alone wraps every send
     fast = CognizeFastPath(app, runtime, models.cognize_in, settings.token)
-    return BodyLimit(fast, limit=settings.max_body)
+    return CrossSiteGuard(BodyLimit(fast, limit=settings.max_body))
 
 
 def api(app: ASGIApp) -> FastAPI:
