@@ -6,7 +6,10 @@ command is replanned and logged, never raised.
 Every switch it commands is announced to the attribution first (so its report is known for the
 robot's own), a service that would switch a device a person holds is left out (never fight), and
 what it did goes to the journal with the services' explanations. Nor does it switch back a device
-it switched itself while the home is as that switch left it (:mod:`homecog.robot.settling`).
+it switched itself while the home is as that switch left it, or while the user's situation is
+the one it switched in (:mod:`homecog.robot.settling`), nor switch one device more than
+:data:`~homecog.robot.pacing.MOST_AN_HOUR` times within an hour: past that the device is the
+household's to switch (:mod:`homecog.robot.pacing`).
 """
 
 from __future__ import annotations
@@ -63,6 +66,7 @@ class Actor:
         self.skipped_resting = 0  # services left out: a device of theirs switched too lately
         self.settling = Settling(home)  # its own recent switches: not switched back at once
         self.skipped_settling = 0  # services left out: they would switch back the robot's own
+        self.skipped_hourly = 0  # services left out: a device of theirs switched enough this hour
         self._sent: dict[str, dict[str, str]] = {}
         self._proposed: set[str] = set()
         self._switched: list[tuple[str, bool]] | None = None
@@ -120,6 +124,9 @@ class Actor:
                 if pending and any(self.pacing.resting(d, at=at) for d, on in sets if devices[d] != on):
                     self.skipped_resting += 1
                     continue
+                if pending and any(self.pacing.spent(d, at=at) for d, on in sets if devices[d] != on):
+                    self.skipped_hourly += 1
+                    continue
                 if pending and reachable and self._sent.get(name) != now:
                     if one_switch and switching:
                         continue
@@ -161,9 +168,11 @@ class Actor:
             switched, self._switched = self._switched or [], None
         log.info("the robot did: %s", "; ".join(" ".join(a) for a in result.done) or "nothing")
         self.acted = result
+        at = self.source.clock()
         for device, on in switched:
             self.holds.robot_switched(device, now)
-            self.settling.switched(device, on, at=self.source.clock())
+            self.settling.switched(device, on, at=at, context=now)
+            self.pacing.robot_switched(device, at=at)
         return self.journal.add(
             at=self.source.clock(),
             services=todo,

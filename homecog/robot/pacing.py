@@ -1,6 +1,8 @@
-"""The robot never flaps a device: a minimum time between its switches of one device, and
+"""The robot never flaps a device: a minimum time between its switches of one device,
 hysteresis at the edges of numeric bins (the home file's ``min_on``, ``min_off`` and
-``deadband``; :mod:`homecog.home.pacing` has the defaults).
+``deadband``; :mod:`homecog.home.pacing` has the defaults), and at most :data:`MOST_AN_HOUR` of
+its own switches of one device within any :data:`HOUR` (a switch past that is left to the
+household).
 
 >>> from homecog.home import load_home
 >>> home = load_home("paper")   # ac_living is a climate device: 10 minutes either way
@@ -13,23 +15,31 @@ hysteresis at the edges of numeric bins (the home file's ``min_on``, ``min_off``
 ('24.9', '24.999999')
 >>> pacing.steady({"temperature": "25.6"})["temperature"]
 '25.6'
+>>> pacing.robot_switched("lamp", at=0.0); pacing.robot_switched("lamp", at=1200.0)
+>>> pacing.spent("lamp", at=3599.0), pacing.spent("lamp", at=3600.0)   # two within the hour
+(True, False)
 """
 
 from __future__ import annotations
 
 import bisect
 import threading
+from collections import deque
 from collections.abc import Mapping
 
 from homecog.home.model import Home
 
 #: how far inside the bin it keeps a reading that has not crossed an edge by the deadband
 _INSIDE = 1e-6
+#: the most switches of one device the robot makes within :data:`HOUR`
+MOST_AN_HOUR = 2
+#: the rolling window of :data:`MOST_AN_HOUR` (seconds)
+HOUR = 3600.0
 
 
 class Pacing:
-    """Per device its latest switch (whoever made it); per numeric feature the bin the robot
-    last saw."""
+    """Per device its latest switch (whoever made it) and the robot's own switches of the last
+    hour; per numeric feature the bin the robot last saw."""
 
     def __init__(self, home: Home) -> None:
         self._least = {d.name: (d.min_off, d.min_on) for d in home.devices}
@@ -40,6 +50,7 @@ class Pacing:
             if f.kind == "numeric" and f.deadband > 0 and f.bins
         }
         self._bin: dict[str, int] = {}
+        self._robot: dict[str, deque[float]] = {}  # device -> the robot's switches within the hour
         self._lock = threading.Lock()
 
     def switched(self, device: str, on: bool, *, at: float) -> None:
@@ -55,6 +66,28 @@ class Pacing:
             return False
         on, since = last
         return at - since < self._least[device][int(on)]
+
+    def robot_switched(self, device: str, *, at: float) -> None:
+        """The robot switched ``device`` at ``at`` (its own command)."""
+        with self._lock:
+            times = self._robot.setdefault(device, deque())
+            times.append(at)
+            self._prune(times, at)
+
+    def spent(self, device: str, *, at: float) -> bool:
+        """Whether the robot switched ``device`` :data:`MOST_AN_HOUR` times within the last
+        :data:`HOUR`: it leaves it (to the household) until the first of them is an hour old."""
+        with self._lock:
+            times = self._robot.get(device)
+            if not times:
+                return False
+            self._prune(times, at)
+            return len(times) >= MOST_AN_HOUR
+
+    @staticmethod
+    def _prune(times: deque[float], at: float) -> None:
+        while times and at - times[0] >= HOUR:
+            times.popleft()
 
     def steady(self, context: Mapping[str, str]) -> dict[str, str]:
         """The context as the robot reads it: a reading that left its bin by less than the
