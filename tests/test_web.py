@@ -104,6 +104,27 @@ def test_a_correction_changes_that_users_answers_only(client):
     assert agreement[-1]["rate"] == pytest.approx(sum(a["agreed"] for a in agreement) / len(agreement))
 
 
+def test_history_comes_a_bounded_page_at_a_time(client):
+    for light in range(0, 250, 50):  # five corrections of pam's
+        context = {**WORK, "light": light}
+        client.post("/api/corrections", json={"context": context, "want": [], "user": "pam"})
+    pages, before = [], None
+    while True:
+        params = {"user": "pam", "limit": 2, **({"before": before} if before else {})}
+        page = client.get("/api/history", params=params).json()
+        assert page["total"] == 5 and len(page["corrections"]) <= 2
+        pages.append([c["id"] for c in page["corrections"]])
+        before = page["before"]
+        if before is None:
+            break
+    ids = [i for p in reversed(pages) for i in p]
+    assert [len(p) for p in pages] == [2, 2, 1] and ids == sorted(ids) and len(set(ids)) == 5
+    whole = client.get("/api/history", params={"user": "pam"}).json()
+    assert [c["id"] for c in whole["corrections"]] == ids and whole["before"] is None
+    r = client.get("/api/history", params={"limit": 100_000})
+    assert r.status_code == 422 and "limit" in r.json()["detail"]
+
+
 def test_plan(client):
     r = client.post("/api/plan", json={"services": ["BringTea"], "context": WORK})
     assert r.status_code == 200

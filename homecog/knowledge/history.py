@@ -56,10 +56,12 @@ class Logged:
 
 @dataclass(frozen=True)
 class History:
-    """The latest corrections, oldest first, and how many the log holds in all."""
+    """The latest corrections, oldest first, how many the log holds in all, and the ``before``
+    of the page older than these (``None``: there is none)."""
 
     total: int
     corrections: list[Logged]
+    before: int | None = None
 
 
 @dataclass(frozen=True)
@@ -72,8 +74,11 @@ class Agreement:
     rate: float
 
 
-def correction_history(store: Store, *, user: str | None = None, limit: int = 500) -> History:
-    """The latest ``limit`` corrections (of ``user``, or of everyone), oldest first.
+def correction_history(
+    store: Store, *, user: str | None = None, limit: int = 500, before: int | None = None
+) -> History:
+    """The latest ``limit`` corrections (of ``user``, or of everyone; older than the one whose id
+    is ``before``), oldest first, and the ``before`` of the page older than these.
 
     Raises :class:`StoreError` when the database cannot be used.
     """
@@ -82,16 +87,18 @@ def correction_history(store: Store, *, user: str | None = None, limit: int = 50
     where = [ExperienceRow.home == store.home.name, ExperienceRow.kind == "correction"]
     if user is not None:
         where.append(ExperienceRow.user == user)
+    page = [*where, ExperienceRow.id < before] if before is not None else where
     latest = (
         select(ExperienceRow.id, ExperienceRow.user, ExperienceRow.created_at, ExperienceRow.payload)
-        .where(*where)
+        .where(*page)
         .order_by(ExperienceRow.id.desc())
-        .limit(limit)
+        .limit(limit + 1)  # one more: whether there is an older page
     )
     try:
         with store.engine.connect() as conn:
             total = conn.execute(select(func.count()).select_from(ExperienceRow).where(*where)).scalar_one()
             rows = conn.execute(latest).all()
+            older, rows = len(rows) > limit, rows[:limit]
     except SQLAlchemyError as e:
         orig = getattr(e, "orig", None) or e
         first = (str(orig).strip().splitlines() or [type(orig).__name__])[0]
@@ -113,7 +120,7 @@ def correction_history(store: Store, *, user: str | None = None, limit: int = 50
                 note=payload.get("note"),
             )
         )
-    return History(total=total, corrections=corrections)
+    return History(total=total, corrections=corrections, before=corrections[0].id if older else None)
 
 
 def agreement(history: History) -> list[Agreement]:

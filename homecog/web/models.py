@@ -224,6 +224,7 @@ class PlanOut(BaseModel):
 
 
 class HistoryCorrectionOut(BaseModel):
+    id: int = Field(description="Its place in the log (give it as `before` for the older ones).")
     at: float = Field(description="When it was stored: seconds since 1970 (UTC).")
     user: str
     want: list[str] = Field(description="What the user wanted.")
@@ -250,6 +251,9 @@ class AgreementOut(BaseModel):
 class HistoryOut(BaseModel):
     total: int = Field(description="Corrections in the experience log (of the user, if asked).")
     corrections: list[HistoryCorrectionOut] = Field(description="The latest, oldest first.")
+    before: int | None = Field(
+        description="Give it as `before` for the page of older corrections; null: there are none."
+    )
     agreement: list[AgreementOut] = Field(description="The running agreement over those corrections.")
 
 

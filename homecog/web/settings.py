@@ -57,7 +57,7 @@ class Settings(BaseSettings):
         "or half-sent one is answered 408 and its connection closed.",
     )
     history_limit: int = Field(
-        500, ge=1, le=100_000, description="Corrections GET /api/history gives when not asked for a number."
+        500, ge=1, le=1_000, description="Corrections GET /api/history gives when not asked for a number."
     )
 
     @field_validator("token")
