@@ -362,3 +362,26 @@ def test_a_switch_that_keeps_failing_is_logged_not_raised(built, caplog):
         *(f"plan {n}: {failed}" for n in (1, 2, 3)),
         f"acting: gave up after 3 plans; the last: plan 3: {failed}",
     ]
+
+
+def test_event_streams_are_capped_and_a_stream_past_the_cap_is_a_503(runtime, client):
+    import asyncio
+
+    from homecog.robot.events import EventBus, TooManyStreamsError
+
+    async def open_three() -> tuple[int, str]:
+        bus = EventBus(limit=2)
+        queues = [bus.subscribe(), bus.subscribe()]
+        try:
+            bus.subscribe()
+        except TooManyStreamsError as e:
+            message = str(e)
+        bus.unsubscribe(queues[0])
+        bus.subscribe()  # one closed: one more may open
+        return len(bus._subscribers), message
+
+    assert asyncio.run(open_three()) == (2, "2 event streams are open, the most there may be; close one")
+    runtime.bus.limit = 0
+    r = client.get("/api/events")
+    assert (r.status_code, r.headers["retry-after"]) == (503, "10")
+    assert r.json()["detail"] == "0 event streams are open, the most there may be; close one"

@@ -15,15 +15,30 @@ log = logging.getLogger("homecog.web")
 Message = tuple[str, object]
 
 
-class EventBus:
-    """Subscribers' queues on the server's event loop, fed from any thread."""
+#: the most event streams open at once (a household's pages are a handful)
+MAX_STREAMS = 100
 
-    def __init__(self) -> None:
+
+class TooManyStreamsError(RuntimeError):
+    """Every stream the bus may hold is open."""
+
+
+class EventBus:
+    """Subscribers' queues on the server's event loop, fed from any thread; at most ``limit``
+    of them (each open page holds one; unread streams cost every event its delivery)."""
+
+    def __init__(self, limit: int = MAX_STREAMS) -> None:
         self._subscribers: set[asyncio.Queue[Message]] = set()
         self._loop: asyncio.AbstractEventLoop | None = None
+        self.limit = limit
 
     def subscribe(self) -> asyncio.Queue[Message]:
-        """A queue of events ``(kind, data)``; call from the event loop."""
+        """A queue of events ``(kind, data)``; call from the event loop.
+        :class:`TooManyStreamsError` when ``limit`` are open."""
+        if len(self._subscribers) >= self.limit:
+            raise TooManyStreamsError(
+                f"{self.limit} event streams are open, the most there may be; close one"
+            )
         self._loop = asyncio.get_running_loop()
         queue: asyncio.Queue[Message] = asyncio.Queue(maxsize=100)
         self._subscribers.add(queue)

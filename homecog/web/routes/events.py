@@ -8,22 +8,36 @@ alive every 15 s.
 
 from __future__ import annotations
 
+import asyncio
 import contextlib
 from collections.abc import AsyncIterable
+from typing import Annotated, Any
 
-from fastapi import APIRouter
+from fastapi import APIRouter, Depends, HTTPException
 from fastapi.sse import EventSourceResponse, ServerSentEvent
 
 from homecog.errors import ContextError
+from homecog.robot.events import TooManyStreamsError
 from homecog.web.deps import RuntimeDep
+from homecog.web.errors import responses
 
 router = APIRouter(tags=["context"])
 
 
-@router.get("/api/events", response_class=EventSourceResponse)
-async def events(runtime: RuntimeDep) -> AsyncIterable[ServerSentEvent]:
-    """Server-sent events: ``context`` when the home changes, ``correction`` when one is made."""
-    queue = runtime.subscribe()
+async def _stream(runtime: RuntimeDep) -> asyncio.Queue[Any]:
+    """A stream's queue, taken before the response starts: 503 when every stream is open."""
+    try:
+        return runtime.subscribe()
+    except TooManyStreamsError as e:
+        raise HTTPException(503, detail=str(e), headers={"Retry-After": "10"}) from None
+
+
+@router.get("/api/events", response_class=EventSourceResponse, responses=responses(503, stream=True))
+async def events(
+    runtime: RuntimeDep, queue: Annotated[asyncio.Queue[Any], Depends(_stream)]
+) -> AsyncIterable[ServerSentEvent]:
+    """Server-sent events: ``context`` when the home changes, ``correction`` when one is made.
+    503 while every stream the server keeps (100) is open."""
     try:
         # a broker that has not sent every state yet: the first context comes when it has
         with contextlib.suppress(ContextError, ValueError):
