@@ -80,6 +80,15 @@ def test_a_half_sent_request_is_answered_408_and_closed_within_seconds(runtime):
             assert answer.endswith(b'{"detail": "the request did not arrive whole within 1.5 s"}')
         seconds, answer = exchange(url, b"GET /api/home HTTP/1.1\r\n" + host + b"X-Big: " + b"a" * 70_000)
         assert seconds < 1 and answer.startswith(b"HTTP/1.1 431 ")
+        # a legal body just under 64 KiB that arrives in one piece with its headers (together
+        # over 64 KiB) is the app's to answer
+        body = json.dumps({"context": {"time": "10:00"}, "pad": ""}).encode()
+        body = body.replace(b'"pad": ""', b'"pad": "' + b"x" * (65_450 - len(body)) + b'"')
+        assert len(body) == 65_450
+        head = b"POST /api/cognize HTTP/1.1\r\n" + host + b"Content-Type: application/json\r\n"
+        whole = head + b"Content-Length: %d\r\nConnection: close\r\n\r\n" % len(body) + body
+        seconds, answer = exchange(url, whole)
+        assert answer.startswith(b"HTTP/1.1 422 "), answer[:200]  # read whole: its context is short
         # a whole request, then a kept-alive connection left idle: closed after keep-alive's 5 s
         seconds, answer = exchange(url, b"GET /api/context HTTP/1.1\r\n" + host + b"\r\n")
         assert answer.startswith(b"HTTP/1.1 200 OK") and seconds < 7

@@ -87,8 +87,9 @@ class TimedProtocol(HttpToolsProtocol):
     def data_received(self, data: bytes) -> None:
         if self._deadline is None:  # the first bytes of a request on a kept-alive connection
             self._arm()
-        if self._header_bytes is not None:
-            self._header_bytes += len(data)
+        if self._header_bytes is not None:  # only the headers count: a body may come with them
+            end = data.find(b"\r\n\r\n")
+            self._header_bytes += len(data) if end < 0 else end + 4
             if self._header_bytes > MAX_HEADERS:
                 return self._refuse(431, "request headers over 64 KiB")
         super().data_received(data)
