@@ -211,3 +211,36 @@ def test_the_store_keeps_no_learner_and_the_tree_no_sql():
     for name in ("ihdr.py", "tree.py", "search.py", "lookup.py", "update.py", "corrections.py"):
         assert "sqlalchemy" not in (root / name).read_text()
     assert load_home("paper")  # the package imports whole
+
+
+def test_a_cognition_never_waits_on_a_correction_s_commit(stored, tmp_path, monkeypatch):
+    """The robot's lock is held while the tree is read or changed, not while the database
+    writes: a correction stuck in its transaction holds up no cognition, and lands whole."""
+    import threading
+
+    home, _ = stored
+    store = Store.open(_copy(stored, tmp_path), home)
+    source = ManualSource(home)
+    source.set_context({k: str(v) for k, v in WORK.items()})
+    runtime = Runtime(home=home, store=store, tree=store.load_tree(), source=source)
+    entered, release = threading.Event(), threading.Event()
+    real = store.log_correction
+
+    def slow(conn, user, payload):
+        entered.set()
+        assert release.wait(10)
+        return real(conn, user, payload)
+
+    monkeypatch.setattr(store, "log_correction", slow)
+    point = runtime.space.point({k: str(v) for k, v in WORK.items()})
+    worker = threading.Thread(
+        target=runtime.correct, args=(Correction.change("kim", point, add=["RadioOff"]),)
+    )
+    worker.start()
+    assert entered.wait(10)
+    assert not runtime.lock.locked()
+    assert "RadioOff" not in runtime.cognize(WORK, "kim")["services"]  # not committed: not learned
+    release.set()
+    worker.join(10)
+    assert "RadioOff" in runtime.cognize(WORK, "kim")["services"] and store.read_user("kim")[0] == 1
+    store.close()

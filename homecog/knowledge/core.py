@@ -38,12 +38,14 @@ from __future__ import annotations
 import random
 import time
 from collections.abc import Iterable, Sequence
+from contextlib import AbstractContextManager, nullcontext
 from typing import Any
 
 from homecog.errors import ConflictError
 from homecog.home.codec import Point
 from homecog.home.recent import Recent
 from homecog.knowledge.correction import Correction, Outcome
+from homecog.knowledge.corrections import Example
 from homecog.knowledge.ihdr import IHDRTree
 from homecog.knowledge.sample_log import SampleLog
 from homecog.knowledge.samples import SampleSet
@@ -51,25 +53,40 @@ from homecog.knowledge.store import Store
 
 #: attempts of a transaction that the server aborts for a deadlock between concurrent corrections
 CONFLICT_RETRIES = 50
+#: no lock: a tree nobody else reads meanwhile
+NO_LOCK = nullcontext()
 
 
-def correct(store: Store, tree: IHDRTree, c: Correction) -> Outcome:
+def correct(
+    store: Store, tree: IHDRTree, c: Correction, lock: AbstractContextManager[Any] = NO_LOCK
+) -> Outcome:
     """Commit correction ``c`` to the log, then learn it into ``tree``. A transaction the server
-    aborts for a deadlock (MariaDB's locks on the users and experiences indexes) runs again."""
-    for attempt in range(CONFLICT_RETRIES):
-        try:
-            with store.transaction() as conn:
-                version = _up_to_date(store, tree, conn, c.user)
-                added, rejected = tree.judge(c)
-                store.log_correction(conn, c.user, c.row(tree.space.context(c.point), added, rejected))
-            break
-        except ConflictError:
-            if attempt == CONFLICT_RETRIES - 1:
-                raise
-            time.sleep(random.uniform(0, 0.01 * (attempt + 1)))
-    tree.apply(c)
-    store.holds(c.user, version + 1)
-    return Outcome(c, tree.n_clusters(c.user), added, rejected)
+    aborts for a deadlock (MariaDB's locks on the users and experiences indexes) runs again.
+
+    ``lock`` guards the tree where others read it (the running robot's cognition): it is held
+    while the tree is read or changed, never while the database writes or commits, so a
+    cognition never waits on a commit. One user's corrections in one process run one at a time
+    (:meth:`Store.user_lock`); other processes' are told apart by the user's version."""
+    with store.user_lock(c.user):
+        for attempt in range(CONFLICT_RETRIES):
+            try:
+                with store.transaction() as conn:
+                    version, examples = store.lock_user(conn, c.user)
+                    with lock:
+                        _take(store, tree, c.user, version, examples)
+                        added, rejected = tree.judge(c)
+                        context = tree.space.context(c.point)
+                    store.log_correction(conn, c.user, c.row(context, added, rejected))
+                break
+            except ConflictError:
+                if attempt == CONFLICT_RETRIES - 1:
+                    raise
+                time.sleep(random.uniform(0, 0.01 * (attempt + 1)))
+        with lock:
+            tree.apply(c)
+            store.holds(c.user, version + 1)
+            number = tree.n_clusters(c.user)
+    return Outcome(c, number, added, rejected)
 
 
 def correct_many(store: Store, tree: IHDRTree, corrections: Sequence[Correction]) -> list[Outcome]:
@@ -82,7 +99,8 @@ def correct_many(store: Store, tree: IHDRTree, corrections: Sequence[Correction]
     try:
         with store.transaction() as conn:
             for c in corrections:
-                version = _up_to_date(store, tree, conn, c.user)
+                version, examples = store.lock_user(conn, c.user)
+                _take(store, tree, c.user, version, examples)
                 added, rejected = tree.judge(c)
                 store.log_correction(conn, c.user, c.row(tree.space.context(c.point), added, rejected))
                 tree.apply(c)
@@ -153,11 +171,9 @@ def replay(tree: IHDRTree, kind: str, user: str | None, payload: dict[str, Any])
     tree.learn_one(point, payload["services"], relevant=payload.get("relevant"))
 
 
-def _up_to_date(store: Store, tree: IHDRTree, conn: object, user: str) -> int:
-    """Lock ``user`` for the transaction; their corrections in ``tree`` made again where another
-    process has committed some since. Returns the user's version."""
-    version, examples = store.lock_user(conn, user)  # type: ignore[arg-type]
+def _take(store: Store, tree: IHDRTree, user: str, version: int, examples: list[Example] | None) -> None:
+    """A user's corrections as another process committed them (``None``: as the tree has them)
+    made again in ``tree``."""
     if examples is not None:
         tree.set_user_examples(user, examples)
         store.holds(user, version)
-    return version

@@ -23,6 +23,7 @@ The learner never touches SQL: this module maps the tree to rows and back; the l
 from __future__ import annotations
 
 import json
+import threading
 from collections.abc import Iterator
 from contextlib import contextmanager
 from datetime import UTC, datetime
@@ -87,6 +88,8 @@ class Store(StoreLog):
         self.engine = engine
         self._versions: dict[str, int] = {}
         self._known_users: set[str] = set()
+        self._user_locks: dict[str, threading.Lock] = {}
+        self._locks_lock = threading.Lock()
         self._build = 0  # the build of the tree last loaded
 
     @classmethod
@@ -214,6 +217,11 @@ class Store(StoreLog):
             .order_by(ExperienceRow.id)
         )
         return [example_from_payload(self.home, json.loads(p)) for (p,) in rows]
+
+    def user_lock(self, user: str) -> threading.Lock:
+        """This process's lock on ``user``'s corrections: one at a time from commit to the tree."""
+        with self._locks_lock:
+            return self._user_locks.setdefault(user, threading.Lock())
 
     def holds(self, user: str, version: int) -> None:
         """The tree this store serves holds ``user``'s corrections as of ``version``."""

@@ -55,7 +55,8 @@ LEARNED = ("observed", "undo", "quiet")
 
 @dataclass
 class Runtime:
-    """Everything the routes share. Cognition and corrections hold ``lock``: the tree is not
+    """Everything the routes share. Cognition and corrections hold ``lock`` while they read or
+    change the tree (a correction not while its transaction writes and commits): the tree is not
     thread-safe, FastAPI runs plain route functions (corrections) in a thread pool, a source
     tells its changes on its own thread, and cognition runs on the event loop unless ``lock`` is
     held (see ``CognizeFastPath``). ``household``: the home's own settings unless given."""
@@ -150,8 +151,7 @@ class Runtime:
         it); the store's log keeps it (and the history). Returns what it stored and changed."""
         if not self.household.knows(c.user):
             raise ContextError(f"user {c.user!r}: not one of the household ({self.household.names()})")
-        with self.lock:
-            outcome = core.correct(self.store, self.tree, c)
+        outcome = core.correct(self.store, self.tree, c, self.lock)  # the lock only off the database
         experiences = self.store.experience_count()  # outside the lock: cognition need not wait
         self.publish("correction", _event(outcome))
         return {**outcome.as_dict(), "experiences": experiences}
@@ -161,8 +161,7 @@ class Runtime:
         person's switch is a moment of the stream."""
         if c.kind == "observed" and c.want:
             self.moments.lived(self.space.context(c.point), list(c.want))
-        with self.lock:
-            outcome = core.correct(self.store, self.tree, c)
+        outcome = core.correct(self.store, self.tree, c, self.lock)
         log.info("learned %s for %s: %s", c.kind, c.user, c.says())
         self.publish("correction", _event(outcome))
 
