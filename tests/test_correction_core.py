@@ -244,3 +244,34 @@ def test_a_cognition_never_waits_on_a_correction_s_commit(stored, tmp_path, monk
     worker.join(10)
     assert "RadioOff" in runtime.cognize(WORK, "kim")["services"] and store.read_user("kim")[0] == 1
     store.close()
+
+
+def test_two_robots_on_one_database_agree_within_their_freshness(stored, tmp_path):
+    """Two servers (``homecog up`` twice) on one database: a correction through one is what the
+    other answers once its next look at the database comes (at most ``fresh`` seconds)."""
+    import time
+
+    home, _ = stored
+    url = _copy(stored, tmp_path)
+    robots = []
+    for _ in range(2):
+        store = Store.open(url, home)
+        source = ManualSource(home)
+        source.set_context({k: str(v) for k, v in WORK.items()})
+        robots.append(Runtime(home=home, store=store, tree=store.load_tree(), source=source, fresh=0.05))
+    one, other = robots
+    assert "RadioOff" not in other.cognize(WORK, "kim")["services"]
+    one.correct(
+        Correction.change("kim", one.space.point({k: str(v) for k, v in WORK.items()}), add=["RadioOff"])
+    )
+    time.sleep(0.06)
+    assert "RadioOff" in other.cognize(WORK, "kim")["services"]
+    lonely = Runtime(home=home, store=other.store, tree=other.store.load_tree(), source=other.source)
+    one.correct(
+        Correction.change("kim", one.space.point({k: str(v) for k, v in WORK.items()}), reject=["RadioOff"])
+    )
+    time.sleep(0.06)
+    assert "RadioOff" not in other.cognize(WORK, "kim")["services"]
+    assert "RadioOff" in lonely.cognize(WORK, "kim")["services"]  # fresh None: it alone writes
+    for robot in robots:
+        robot.store.close()

@@ -26,6 +26,9 @@ from homecog.home import load_home
 from homecog.home.household import Household
 from homecog.home.model import Home
 
+#: seconds at most between two looks at the database for another server's corrections
+FRESH = 0.05
+
 
 def up(
     home: HomeOption = "paper",
@@ -125,7 +128,9 @@ def up(
             source = _simulated(h, speed, truth)
         elif not early:
             source = outside.source.make(h, outside.url, ha_token)
-        runtime = Runtime(home=h, store=store, tree=tree, source=source, household=people, robot=robot)
+        runtime = Runtime(
+            home=h, store=store, tree=tree, source=source, household=people, robot=robot, fresh=FRESH
+        )
         if runtime.actor.body is not None:
             say(
                 f"the robot's body: {runtime.actor.body.name} ({runtime.actor.body.planner} paths)",

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import logging
 import threading
+import time
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, replace
 from typing import Any
@@ -72,6 +73,9 @@ class Runtime:
     """Called after every :meth:`tick` (a simulated household taking its turn)."""
     robot: str = "builtin"
     """The robot's body in the simulated home (:data:`homecog.simulation.bodies.BODIES`)."""
+    fresh: float | None = None
+    """Seconds at most between two looks at the database for another process's corrections or
+    build (``homecog up``; ``None``: this process alone writes, as in the closed loop)."""
     announcers: list[Callable[[str, object], object]] = field(default_factory=list)
     """Told every event ``(kind, data)`` as the live stream is, and the robot's decisions
     (``decision``: the services it proposes, their explanations, the user) when they change:
@@ -96,6 +100,7 @@ class Runtime:
             body=body,
             pacing=self.pacing,
         )
+        self._checked, self._version = time.monotonic(), self.store.home_version()
         self.household_switches = 0  # device changes by people (and automations) seen
         self._situation: tuple[float, dict[str, str] | None] = (0.0, None)  # since, latest context
         self._acting = threading.RLock()  # the robot acts, or an action is undone: one at a time
@@ -136,15 +141,29 @@ class Runtime:
     # -- cognition, corrections, plans ---------------------------------------------------------
     def cognize(self, context: Mapping[str, object], user: str) -> dict[str, Any]:
         point = self.space.point(context)
+        self.keep_fresh()
         with self.lock:
             return self.tree.explain_one(point, user=user).as_dict()
 
     def cognize_json(self, context: Mapping[str, object], user: str) -> bytes:
         """:meth:`cognize` as JSON, the same object; orjson writes the dataclasses directly."""
         point = self.space.point(context)
+        self.keep_fresh()
         with self.lock:
             answer = self.tree.explain_one(point, user=user)
         return orjson.dumps(answer)
+
+    def keep_fresh(self) -> None:
+        """Where another process shares the database (``fresh`` seconds apart at most): the
+        tree brought up to its corrections and builds when the home's version moved."""
+        if self.fresh is None or time.monotonic() - self._checked < self.fresh:
+            return
+        self._checked = time.monotonic()
+        version = self.store.home_version()  # one primary-key lookup
+        if version != self._version:
+            with self.lock:
+                self.tree = core.refresh(self.store, self.tree)
+            self._version = version
 
     def correct(self, c: Correction) -> dict[str, Any]:
         """Learn and store an explicit correction (the knowledge core commits it, then learns
