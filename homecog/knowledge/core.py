@@ -42,9 +42,7 @@ from contextlib import AbstractContextManager, nullcontext
 from typing import Any
 
 from homecog.errors import ConflictError
-from homecog.home.codec import Point
-from homecog.home.recent import Recent
-from homecog.knowledge.correction import Correction, Outcome
+from homecog.knowledge.correction import Correction, Outcome, point_of_row
 from homecog.knowledge.corrections import Example
 from homecog.knowledge.ihdr import IHDRTree
 from homecog.knowledge.sample_log import SampleLog
@@ -161,14 +159,7 @@ def replay(tree: IHDRTree, kind: str, user: str | None, payload: dict[str, Any])
     if kind == "correction":
         tree.apply(Correction.from_row(user, payload))
         return
-    recent = payload.get("recent")
-    point = Point(
-        codes=tuple(payload["codes"]),
-        readings=tuple(payload["readings"]),
-        recent=None if recent is None else Recent.from_dict(recent),
-        missing=frozenset(payload.get("missing", ())),
-    )
-    tree.learn_one(point, payload["services"], relevant=payload.get("relevant"))
+    tree.learn_one(point_of_row(payload), payload["services"], relevant=payload.get("relevant"))
 
 
 def _take(store: Store, tree: IHDRTree, user: str, version: int, examples: list[Example] | None) -> None:

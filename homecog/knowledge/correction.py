@@ -149,23 +149,27 @@ class Correction:
     @classmethod
     def from_row(cls, user: str | None, payload: Mapping[str, Any]) -> Correction:
         """The correction a log row holds (rows without a user are the default user's)."""
-        recent = payload.get("recent")
-        point = Point(
-            codes=tuple(payload["codes"]),
-            readings=tuple(payload["readings"]),
-            recent=None if recent is None else Recent.from_dict(recent),
-            missing=frozenset(payload.get("missing", ())),
-        )
         concerns = payload.get("concerns")
         return cls(
             user or "default",
-            point,
+            point_of_row(payload),
             tuple(payload["want"]),
             None if concerns is None else tuple(concerns),
             payload.get("kind", "explicit"),
             payload.get("weight", 1),
             payload.get("note", {}),
         )
+
+
+def point_of_row(payload: Mapping[str, Any]) -> Point:
+    """The point a log row (a correction's or a single sample's) was made at."""
+    recent = payload.get("recent")
+    return Point(
+        codes=tuple(payload["codes"]),
+        readings=tuple(payload["readings"]),
+        recent=None if recent is None else Recent.from_dict(recent),
+        missing=frozenset(payload.get("missing", ())),
+    )
 
 
 def _list(names: tuple[str, ...] | None) -> list[str] | None:
