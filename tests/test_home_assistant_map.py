@@ -305,3 +305,57 @@ def test_the_ha_commands_say_what_is_wrong_in_one_line(
         assert (code, captured.out) == (2, ""), argv
         assert captured.err.startswith("homecog: error: ") and message in captured.err, captured.err
         assert captured.err.count("\n") == 1, captured.err
+
+
+def _json() -> object:
+    from hypothesis import strategies as st
+
+    scalars = st.none() | st.booleans() | st.integers() | st.floats() | st.text(max_size=12)
+    return st.recursive(
+        scalars,
+        lambda inner: st.lists(inner, max_size=4) | st.dictionaries(st.text(max_size=8), inner, max_size=4),
+        max_leaves=12,
+    )
+
+
+def test_scaffold_takes_any_answer_of_an_instance_and_writes_a_home_that_loads():
+    """Whatever an instance answers for its states (odd types, odd attributes, numbers too big),
+    scaffolding leaves out what it cannot read and writes a file that loads; never a traceback."""
+    from hypothesis import HealthCheck, given, settings
+    from hypothesis import strategies as st
+
+    from homecog.home.ha_scaffold import scaffold
+
+    odd_attrs = st.dictionaries(
+        st.sampled_from(["device_class", "unit_of_measurement", "min", "max", "options"]), _json(), max_size=5
+    )
+    entity = st.fixed_dictionaries(
+        {
+            "entity_id": st.sampled_from(
+                ["light.a", "sensor.t", "input_number.n", "select.s", "person.p", "x"]
+            )
+            | _json(),
+            "state": _json(),
+            "attributes": odd_attrs | _json(),
+        }
+    )
+
+    @settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+    @given(st.lists(entity | _json(), max_size=6) | _json())
+    def check(states):
+        text, summary = scaffold(states, name="odd")
+        load_home_text(text, "odd.yaml")
+        assert summary["odd"] <= (len(states) if isinstance(states, list) else 0)
+
+    check()
+    _, summary = scaffold(
+        [
+            {"entity_id": "input_number.n", "attributes": {"min": 0, "max": "9"}},  # max not a number
+            {"entity_id": "select.s", "attributes": {"options": "abc"}},  # options not a list
+            {"entity_id": "sensor.t", "attributes": {"device_class": ["temperature"]}},
+            {"entity_id": "light.hall", "attributes": [1, 2]},  # attributes not a mapping
+            {"entity_id": 7},
+        ],
+        name="odd",
+    )
+    assert (summary["features"], summary["devices"], summary["odd"]) == (["time"], ["robot_light"], 2)

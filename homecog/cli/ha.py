@@ -126,7 +126,8 @@ def scaffold(
 
     _writable(out)
     states, config = query(home_assistant, _token(ha_token), ["get_states", "get_config"])
-    text, summary = write(states, name=name or config.get("location_name") or out.stem)
+    place = config.get("location_name") if isinstance(config, dict) else None
+    text, summary = write(states, name=name or (place if isinstance(place, str) else None) or out.stem)
     out.write_text(text, encoding="utf-8")
     if json:
         emit_json({**summary, "out": str(out)})
@@ -136,4 +137,6 @@ def scaffold(
         f"{len(summary['services'])} services",
         highlight=False,
     )
+    if summary["odd"]:
+        stdout.print(f"left out {summary['odd']:,} entities the instance described oddly", highlight=False)
     stdout.print(f"next: edit it, then homecog home check {out}", highlight=False)

@@ -33,7 +33,7 @@ from __future__ import annotations
 
 import math
 import re
-from collections.abc import Iterable, Mapping
+from collections.abc import Mapping
 from typing import Any
 
 import yaml
@@ -88,6 +88,61 @@ def _fahrenheit(bins: dict[str, list[float]]) -> dict[str, list[float]]:
     return {k: [v if math.isinf(v) else round(v * 9 / 5 + 32, 1) for v in b] for k, b in bins.items()}
 
 
+#: what of an instance's answer is read: its first entities, each option and unit this long
+MAX_ENTITIES, MAX_OPTIONS, MAX_TEXT = 10_000, 100, 100
+ENTITY_ID = re.compile(r"[a-z_]{1,64}\.[a-z0-9_]{1,190}")
+
+
+def entities(states: object) -> tuple[list[dict[str, Any]], int]:
+    """The entity states as scaffolding reads them, and how many it left out as odd: an entity
+    id that is not ``domain.object_id``, attributes that are not a mapping; of the attributes
+    only a text ``device_class`` and ``unit_of_measurement``, finite numbers ``min`` and
+    ``max``, and ``options`` of a few texts or numbers (beyond :data:`MAX_ENTITIES`, none).
+
+    >>> entities([{"entity_id": "light.hall", "attributes": {"min": "3", "options": "ab"}}, 7, {}])
+    ([{'entity_id': 'light.hall', 'state': None, 'attributes': {}}], 2)
+    """
+    if not isinstance(states, list):
+        return [], 0
+    kept, odd = [], 0
+    for s in states[:MAX_ENTITIES]:
+        entity = s.get("entity_id") if isinstance(s, Mapping) else None
+        attrs = s.get("attributes") or {} if isinstance(s, Mapping) else None
+        if not isinstance(entity, str) or not ENTITY_ID.fullmatch(entity) or not isinstance(attrs, Mapping):
+            odd += 1
+            continue
+        state = s.get("state")
+        kept.append(
+            {
+                "entity_id": entity,
+                "state": state if isinstance(state, str) else None,
+                "attributes": _attrs(attrs),
+            }
+        )
+    return kept, odd + max(0, len(states) - MAX_ENTITIES)
+
+
+def _attrs(attrs: Mapping[str, Any]) -> dict[str, Any]:
+    out: dict[str, Any] = {}
+    for key in ("device_class", "unit_of_measurement"):
+        if isinstance(attrs.get(key), str) and len(attrs[key]) <= MAX_TEXT:
+            out[key] = attrs[key]
+    for key in ("min", "max"):
+        value = attrs.get(key)
+        number = isinstance(value, (int, float)) and not isinstance(value, bool)
+        if number and math.isfinite(value) and abs(value) < 1e15:
+            out[key] = value
+    options = attrs.get("options")
+    few = isinstance(options, list) and 0 < len(options) <= MAX_OPTIONS
+    if few and all(_option(o) for o in options):
+        out["options"] = list(options)
+    return out
+
+
+def _option(o: object) -> bool:
+    return isinstance(o, (str, int, float)) and not isinstance(o, bool) and len(str(o)) <= MAX_TEXT
+
+
 def _feature_of(state: Mapping[str, Any]) -> tuple[dict[str, Any], dict[str, Any], str | None] | None:
     """The context feature an entity's state makes, if any: its spec in ``context``, its mapping
     in ``home_assistant.features`` and what it is for the rules (``None``: nothing to them)."""
@@ -97,11 +152,7 @@ def _feature_of(state: Mapping[str, Any]) -> tuple[dict[str, Any], dict[str, Any
     device_class = attrs.get("device_class")
     if domain == "sensor" and device_class in SENSOR_BINS:
         return _sensor(attrs, device_class), {"entity": entity}, device_class
-    if (
-        domain == "input_number"
-        and isinstance(attrs.get("min"), (int, float))
-        and attrs.get("max", 0) > attrs["min"]
-    ):
+    if domain == "input_number" and "min" in attrs and "max" in attrs and attrs["max"] > attrs["min"]:
         return _input_number(attrs), {"entity": entity}, None
     if domain in ("input_select", "select") and attrs.get("options"):
         return _select(entity, attrs)
@@ -148,9 +199,11 @@ def _select(entity: str, attrs: Mapping[str, Any]) -> tuple[dict[str, Any], dict
     return {"kind": "categorical", "values": values}, fmap, None
 
 
-def scaffold(states: Iterable[Mapping[str, Any]], *, name: str = "my_home") -> tuple[str, dict[str, Any]]:
+def scaffold(states: object, *, name: str = "my_home") -> tuple[str, dict[str, Any]]:
     """The YAML text of a home file for these entity states, and what it holds
-    (``features``, ``devices``, ``services``: lists of names). The text always loads."""
+    (``features``, ``devices``, ``services``: lists of names; ``odd``: entities left out, as
+    :func:`entities` reads them). The text always loads."""
+    states, odd = entities(states)
     taken: set[str] = {"time"}
     context: dict[str, Any] = {"time": {"kind": "clock", "bins": CLOCK_BINS}}
     fmaps: dict[str, Any] = {}
@@ -195,7 +248,7 @@ def scaffold(states: Iterable[Mapping[str, Any]], *, name: str = "my_home") -> t
         home, sort_keys=False, allow_unicode=True, width=110, default_flow_style=None
     )
     load_home_text(text, f"{name}.yaml")  # what it writes must load
-    return text, {"features": list(context), "devices": list(devices), "services": list(services)}
+    return text, {"features": list(context), "devices": list(devices), "services": list(services), "odd": odd}
 
 
 def _comfort(devices: Mapping[str, Any], kinds: Mapping[str, str]) -> dict[str, list[dict[str, Any]]]:
