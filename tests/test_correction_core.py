@@ -275,3 +275,30 @@ def test_two_robots_on_one_database_agree_within_their_freshness(stored, tmp_pat
     assert "RadioOff" in lonely.cognize(WORK, "kim")["services"]  # fresh None: it alone writes
     for robot in robots:
         robot.store.close()
+
+
+def test_another_process_s_corrections_are_learned_on_top_not_from_the_start(stored, tmp_path):
+    """A tree that held a user's first corrections takes another process's later ones by
+    learning those alone (the learners it made stay), and answers as a tree loaded afresh."""
+    home, _ = stored
+    url = _copy(stored, tmp_path)
+    here, there = Store.open(url, home), Store.open(url, home)
+    mine, theirs = here.load_tree(), there.load_tree()
+    contexts = [
+        {**WORK, "light": light, "activity": a} for light in (20, 150, 400) for a in ("work", "relax")
+    ]
+    points = [mine.space.point({k: str(v) for k, v in c.items()}) for c in contexts]
+    for p in points[:3]:
+        core.correct(here, mine, Correction.whole("kim", p, ["RadioOff"]))
+    mine.predict_one(points[0], "kim")  # the learners are made
+    made = mine.layers.learners("kim")
+    theirs = core.refresh(there, theirs)
+    for p in points[3:]:
+        core.correct(there, theirs, Correction.change("kim", p, add=["LampOn"]))
+    assert core.refresh(here, mine) is mine and mine.n_clusters("kim") == 6
+    assert mine.layers.learners("kim") is made  # not made again from the start
+    fresh = here.load_tree()
+    assert mine.signature() == fresh.signature()
+    assert [mine.predict_one(p, "kim") for p in points] == [fresh.predict_one(p, "kim") for p in points]
+    here.close()
+    there.close()

@@ -69,7 +69,7 @@ def correct(
         for attempt in range(CONFLICT_RETRIES):
             try:
                 with store.transaction() as conn:
-                    version, examples = store.lock_user(conn, c.user)
+                    version, examples = store.lock_user(conn, c.user, tree.n_clusters(c.user))
                     with lock:
                         _take(store, tree, c.user, version, examples)
                         added, rejected = tree.judge(c)
@@ -97,7 +97,7 @@ def correct_many(store: Store, tree: IHDRTree, corrections: Sequence[Correction]
     try:
         with store.transaction() as conn:
             for c in corrections:
-                version, examples = store.lock_user(conn, c.user)
+                version, examples = store.lock_user(conn, c.user, tree.n_clusters(c.user))
                 _take(store, tree, c.user, version, examples)
                 added, rejected = tree.judge(c)
                 store.log_correction(conn, c.user, c.row(tree.space.context(c.point), added, rejected))
@@ -121,12 +121,11 @@ def reload_users(store: Store, tree: IHDRTree, users: Iterable[str]) -> None:
 def refresh(store: Store, tree: IHDRTree) -> IHDRTree:
     """``tree`` brought up to the database: the users another process corrected since it was
     read, or the whole tree loaded again after another build."""
-    stale = store.stale_users()
+    stale = store.stale_users({user: tree.n_clusters(user) for user in tree.users})
     if stale is None:
         return store.load_tree()
     for user, (version, examples) in stale.items():
-        tree.set_user_examples(user, examples)
-        store.holds(user, version)
+        _take(store, tree, user, version, examples)
     return tree
 
 
@@ -162,9 +161,9 @@ def replay(tree: IHDRTree, kind: str, user: str | None, payload: dict[str, Any])
     tree.learn_one(point_of_row(payload), payload["services"], relevant=payload.get("relevant"))
 
 
-def _take(store: Store, tree: IHDRTree, user: str, version: int, examples: list[Example] | None) -> None:
-    """A user's corrections as another process committed them (``None``: as the tree has them)
-    made again in ``tree``."""
-    if examples is not None:
-        tree.set_user_examples(user, examples)
+def _take(store: Store, tree: IHDRTree, user: str, version: int, more: list[Example] | None) -> None:
+    """A user's corrections another process committed after those the tree holds (``None``:
+    none) learned into ``tree``: the cost of those alone, not of the user's whole history."""
+    if more is not None:
+        tree.extend_user_examples(user, more)
         store.holds(user, version)

@@ -186,12 +186,19 @@ class UserLayers:
     ) -> None:
         """A user's correction: the services ``want`` wanted at ``p`` (of ``concerns``, or of
         every service), counted ``weight`` times; counted at once."""
-        example = Example(p.codes, p.readings, frozenset(want), concerns, weight, p.recent, p.missing)
+        self.extend(
+            user, [Example(p.codes, p.readings, frozenset(want), concerns, weight, p.recent, p.missing)]
+        )
+
+    def extend(self, user: str, more: list[Example]) -> None:
+        """A user's corrections that come after those the layer has (another process's): each
+        learned at once, as if it had been made here."""
         examples = self._examples.setdefault(user, [])
-        examples.append(example)
-        if self._made_at.get(user) == self._version():
-            self._learn(user, example, len(examples))
-        # else: made again from every example at the next answer
+        for example in more:
+            examples.append(example)
+            if self._made_at.get(user) == self._version():
+                self._learn(user, example, len(examples))
+            # else: made again from every example at the next answer
 
     def _learn(self, user: str, example: Example, ident: int) -> None:
         learners = self._learners.setdefault(user, {})

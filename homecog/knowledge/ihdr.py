@@ -325,8 +325,13 @@ class IHDRTree:
         return self._layers.examples(user)
 
     def set_user_examples(self, user: str, examples: list[Example]) -> None:
-        """Replace a user's corrections (the store, when another process corrected meanwhile)."""
+        """Replace a user's corrections (as the database holds them)."""
         self._layers.set_examples(user, examples)
+
+    def extend_user_examples(self, user: str, more: list[Example]) -> None:
+        """A user's corrections committed after those the tree holds (another process's),
+        learned as they would have been here: the cost of those alone."""
+        self._layers.extend(user, more)
 
     def service_node(self, a: int) -> Node:
         """The node of service position ``a``."""

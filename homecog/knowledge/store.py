@@ -206,7 +206,9 @@ class Store(StoreLog):
             version = conn.execute(USER_VERSION, {"h": self.home.name, "u": user}).scalar_one_or_none()
             return version or 0, self._examples(conn, user)
 
-    def _examples(self, conn: Connection, user: str) -> list[Example]:
+    def _examples(self, conn: Connection, user: str, after: int = 0) -> list[Example]:
+        """A user's corrections in commit order, past the first ``after`` (a user's rows are
+        appended in the order their transactions commit: their row lock orders them)."""
         rows = conn.execute(
             select(ExperienceRow.payload)
             .where(
@@ -215,6 +217,7 @@ class Store(StoreLog):
                 ExperienceRow.user == user,
             )
             .order_by(ExperienceRow.id)
+            .offset(after)
         )
         return [example_from_payload(self.home, json.loads(p)) for (p,) in rows]
 
@@ -328,10 +331,10 @@ class Store(StoreLog):
         with self._tx() as conn:
             yield conn
 
-    def lock_user(self, conn: Connection, user: str) -> tuple[int, list[Example] | None]:
+    def lock_user(self, conn: Connection, user: str, have: int = 0) -> tuple[int, list[Example] | None]:
         """Lock ``user``'s row for the transaction (``SELECT … FOR UPDATE``; SQLite's write lock)
-        and read their version; with it, their corrections as committed when another process has
-        corrected since this store's tree read them (else ``None``)."""
+        and read their version; with it, where another process has corrected since this store's
+        tree read them, their corrections committed after the first ``have`` (else ``None``)."""
         problem = user_name_problem(user)  # a key of the database: every edge checked it already
         if problem is not None:
             raise NameProblemError(problem)
@@ -340,7 +343,7 @@ class Store(StoreLog):
         query = USER_VERSION_LOCKED if conn.dialect.name != "sqlite" else USER_VERSION
         version = conn.execute(query, {"h": self.home.name, "u": user}).scalar_one_or_none() or 0
         stale = version != self._versions.get(user, 0)
-        return version, self._examples(conn, user) if stale else None
+        return version, self._examples(conn, user, have) if stale else None
 
     def log_correction(self, conn: Connection, user: str, payload: dict[str, Any]) -> None:
         """Append a correction's row to the log and move its user's and home's versions on."""

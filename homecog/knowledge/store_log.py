@@ -53,10 +53,11 @@ class StoreLog:
             ).first()
             return None if row is None else (row.version, row.build)
 
-    def stale_users(self) -> dict[str, tuple[int, list[Example]]] | None:
+    def stale_users(self, have: dict[str, int]) -> dict[str, tuple[int, list[Example]]] | None:
         """The users whose corrections other processes changed since this store's tree read
-        them: their version and corrections as committed; ``None`` after another build (the
-        whole tree is then to be loaded again)."""
+        them: their version and their corrections committed after the first ``have[user]``
+        (those the tree holds); ``None`` after another build (the whole tree is then to be
+        loaded again)."""
         with self._tx() as conn:
             build = conn.execute(select(HomeRow.build).where(HomeRow.name == self.home.name)).scalar()
             if build != self._build:
@@ -65,7 +66,7 @@ class StoreLog:
                 select(UserRow.name, UserRow.version).where(UserRow.home == self.home.name)
             ).all()
             return {
-                name: (version, self._examples(conn, name))  # type: ignore[attr-defined]
+                name: (version, self._examples(conn, name, have.get(name, 0)))  # type: ignore[attr-defined]
                 for name, version in rows
                 if version != self._versions.get(name, 0)
             }
