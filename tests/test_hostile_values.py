@@ -1,0 +1,136 @@
+"""Values a hostile file carries: numbers past any sane size, dates that are none, time zones
+mixed in one file. Each is one line naming the file and where in it, never a traceback."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from homecog.cli.main import main
+from homecog.errors import HomeFileError
+from homecog.home import load_home_text
+from homecog.home.clock import clock_hours
+
+HOMES = Path(__file__).parent / "homes"
+STUDIO = (HOMES / "studio.yaml").read_text()
+BIG = "9" * 5000  # past Python's 4,300 digits of text to integer, and a float's range
+RANGE = "is out of range; a home file's numbers lie within ±1e15"
+
+
+def run(capsys, *args: str) -> tuple[int, str, str]:
+    code = main(list(args))
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def one_line(capsys, args: list[str], expected: str) -> None:
+    """The command fails with exactly ``expected`` as its one line."""
+    assert run(capsys, *args) == (2, "", f"homecog: error: {expected}\n")
+
+
+# -- 1. numbers in a home file -------------------------------------------------------------------
+FIVE_THOUSAND = "99999999999999999999… (5,000 characters)"
+HOUSEHOLD = "household: {{{}}}\nprohibited:"
+
+
+@pytest.mark.parametrize(
+    ("old", "new", "path", "shown"),
+    [
+        ("[200, .inf]", f"[200, {BIG}]", "context.light.bins.bright[1]", FIVE_THOUSAND),
+        (
+            "[200, .inf]",
+            f"[200, -{BIG}]",
+            "context.light.bins.bright[1]",
+            "-9999999999999999999… (5,001 characters)",
+        ),
+        (
+            "[0, 200]",
+            f"[0, 0x{'f' * 3000}]",
+            "context.light.bins.dim[1]",
+            "0xffffffffffffffffff… (3,002 characters)",
+        ),
+        (
+            "[0, 200]",
+            f"[0, {BIG[:400]}]",
+            "context.light.bins.dim[1]",
+            "99999999999999999999… (400 characters)",
+        ),
+        ("[0, 200]", "[0, 10000000000000000]", "context.light.bins.dim[1]", "10000000000000000"),
+        ("[0, 200]", "[0, 1.0e+400]", "context.light.bins.dim[1]", "1.0e+400"),
+        ("[0, 200]", "[0, !!float 1e400]", "context.light.bins.dim[1]", "1e400"),
+        ("[0, 200]", '[0, "1e400"]', "context.light.bins.dim[1]", "1e400"),
+        ("[0, 200]", f'[0, "{BIG}"]', "context.light.bins.dim[1]", FIVE_THOUSAND),
+        ("unit: lx", f"unit: lx\n    deadband: {BIG}", "context.light.deadband", FIVE_THOUSAND),
+        (
+            "radio: {room: studio}",
+            f"radio: {{room: studio, min_on: {BIG}}}",
+            "devices.radio.min_on",
+            FIVE_THOUSAND,
+        ),
+        ("prohibited:", f"rewards: {{magnitude: {BIG}}}\nprohibited:", "rewards.magnitude", FIVE_THOUSAND),
+        ("prohibited:", "rewards: {magnitude: 1e999}\nprohibited:", "rewards.magnitude", "1e999"),
+        ("prohibited:", HOUSEHOLD.format(f"users: [ann], hold: {BIG}"), "household.hold", FIVE_THOUSAND),
+        (
+            "prohibited:",
+            HOUSEHOLD.format(f"{BIG[:900]}: 1"),
+            f"household.{'9' * 40}",
+            "99999999999999999999… (900 characters)",
+        ),
+    ],
+)
+def test_a_number_past_any_sane_size_is_refused_naming_its_key_path(old, new, path, shown):
+    """A 5,000-digit integer anywhere in a home file was a traceback: Python's limit on text to
+    integer (4,300 digits) in the YAML reader, or ``OverflowError`` making it a float."""
+    assert old in STUDIO
+    with pytest.raises(HomeFileError) as e:
+        load_home_text(STUDIO.replace(old, new, 1), "evil.yaml")
+    assert str(e.value) == f"evil.yaml: {path}: number {shown} {RANGE}"
+
+
+@pytest.mark.parametrize(
+    ("new", "why"),
+    [
+        (HOUSEHOLD.format("since: 2024-13-01"), "household.since: '2024-13-01' is not a date"),
+        (HOUSEHOLD.format("since: 0000-01-01"), "household.since: '0000-01-01' is not a date"),
+        (
+            HOUSEHOLD.format("since: 2024-01-01 99:00:00"),
+            "household.since: '2024-01-01 99:00:00' is not a date",
+        ),
+    ],
+)
+def test_a_date_that_is_none_is_refused_naming_its_key_path(new, why):
+    with pytest.raises(HomeFileError) as e:
+        load_home_text(STUDIO.replace("prohibited:", new, 1), "evil.yaml")
+    assert str(e.value) == f"evil.yaml: {why}"
+
+
+def test_a_huge_clock_time_is_not_a_time_and_not_echoed_whole():
+    with pytest.raises(HomeFileError) as e:
+        load_home_text(STUDIO.replace('["06:30", "19:00"]', f'["06:30", "{BIG}:00"]', 1), "evil.yaml")
+    quoted = repr(BIG[:40] + "…")
+    assert (
+        str(e.value) == f'evil.yaml: context.time.bins.day[1]: expected hours (7.5 or "07:30"), got {quoted}'
+    )
+    with pytest.raises(ValueError, match="not a time"):
+        clock_hours(BIG[:400] + ":00")
+
+
+def test_sane_numbers_and_infinities_still_load():
+    home = load_home_text(
+        STUDIO.replace("[0, 200]", "[-1_000, 999_999_999_999_999.0]").replace(
+            "bright: [200, .inf]", "bright: [999_999_999_999_999.0, .inf]"
+        ),
+        "fine.yaml",
+    )
+    assert home.name == "studio"
+
+
+def test_the_command_line_names_the_field(capsys, tmp_path):
+    path = tmp_path / "big.yaml"
+    path.write_text(STUDIO.replace("[200, .inf]", f"[200, {BIG}]"))
+    one_line(
+        capsys,
+        ["home", "check", str(path)],
+        f"{path}: context.light.bins.bright[1]: number 99999999999999999999… (5,000 characters) {RANGE}",
+    )
