@@ -134,3 +134,53 @@ def test_the_command_line_names_the_field(capsys, tmp_path):
         ["home", "check", str(path)],
         f"{path}: context.light.bins.bright[1]: number 99999999999999999999… (5,000 characters) {RANGE}",
     )
+
+
+# -- 2. time zones mixed in an event file ---------------------------------------------------------
+HEADER = "timestamp,time,light,activity,blind,desk_lamp,radio,services"
+
+
+def mixed_events(path: Path, first: str, second: str) -> Path:
+    path.write_text(
+        f"{HEADER}\n{first},07:02,50,work,off,off,off,LampOn\n"
+        "2024-03-01T07:20:00,07:20,50,work,off,on,off,\n"
+        f"{second},07:30,50,relax,off,on,off,RadioOn\n"
+    )
+    return path
+
+
+@pytest.mark.parametrize(
+    ("first", "second", "why"),
+    [
+        (
+            "2024-03-01T07:02:00",
+            "2024-03-01T07:30:00+01:00",
+            "line 4, column timestamp: has a time zone, unlike line 2's",
+        ),
+        (
+            "2024-03-01T07:02:00Z",
+            "2024-03-01T07:30:00+01:00",
+            "line 3, column timestamp: has no time zone, unlike line 2's",
+        ),
+    ],
+)
+def test_an_event_file_mixing_time_zones_is_refused_naming_the_line(capsys, tmp_path, first, second, why):
+    """Timestamps with and without a time zone cannot be compared: ``TypeError`` from the
+    stream's ordering, a traceback, in ``replay`` and ``correct --events``."""
+    path = mixed_events(tmp_path / "events.csv", first, second)
+    db = tmp_path / "k.sqlite"
+    for command in (
+        ["replay", "--events", str(path)],
+        ["correct", "--events", str(path), "--db", f"sqlite:///{db}"],
+    ):
+        one_line(capsys, [*command, "--home", str(HOMES / "studio.yaml")], f"{path}: {why}")
+    assert not db.exists()  # refused before the store was opened
+
+
+def test_an_event_file_all_with_time_zones_is_read(tmp_path, studio):
+    from homecog.home.scenario_file import load_scenarios
+
+    path = mixed_events(tmp_path / "events.csv", "2024-03-01T07:02:00+01:00", "2024-03-01T07:30:00Z")
+    path.write_text(path.read_text().replace("07:20:00,", "07:20:00+01:00,"))
+    rows = load_scenarios(path, studio, studio, events=True)
+    assert [r.timestamp.utcoffset().total_seconds() for r in rows] == [3600, 3600, 0]
