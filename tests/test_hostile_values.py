@@ -184,3 +184,135 @@ def test_an_event_file_all_with_time_zones_is_read(tmp_path, studio):
     path.write_text(path.read_text().replace("07:20:00,", "07:20:00+01:00,"))
     rows = load_scenarios(path, studio, studio, events=True)
     assert [r.timestamp.utcoffset().total_seconds() for r in rows] == [3600, 3600, 0]
+
+
+# -- 3. absurd dates in the real data sets -----------------------------------------------------------
+OF_YEARS = "of the years 1900 to 2100"
+
+
+def mit_folder(folder: Path, head: str, on: str = "17:39:37") -> Path:
+    """A subject's folder of one activity (``head``: NAME,DATE,START,END) and one firing."""
+    folder.mkdir()
+    (folder / "sensors.csv").write_text("101,Bathroom,Light switch\n103,Kitchen,Cabinet\n")
+    (folder / "activities_data.csv").write_text(f"{head}\n101\nLight switch\n{on}\n17:40:00\n")
+    return folder
+
+
+@pytest.mark.parametrize(
+    ("head", "on", "why"),
+    [
+        (
+            "Toileting,4/1/0,17:30:36,17:46:41",
+            "17:39:37",
+            f"line 1: '4/1/0' is not a date M/D/YYYY {OF_YEARS}",
+        ),
+        (
+            "Toileting,4/1/99999,17:30:36,17:46:41",
+            "17:39:37",
+            f"line 1: '4/1/99999' is not a date M/D/YYYY {OF_YEARS}",
+        ),
+        (
+            "Toileting,12/31/9999,23:30:36,00:46:41",
+            "17:39:37",
+            f"line 1: '12/31/9999' is not a date M/D/YYYY {OF_YEARS}",
+        ),
+        (
+            "Toileting,13/1/2003,17:30:36,17:46:41",
+            "17:39:37",
+            f"line 1: '13/1/2003' is not a date M/D/YYYY {OF_YEARS}",
+        ),
+        (
+            "Toileting,4/99999999999/2003,17:30:36,17:46:41",
+            "17:39:37",
+            f"line 1: '4/99999999999/2003' is not a date M/D/YYYY {OF_YEARS}",
+        ),
+        (
+            f"Toileting,4/1/{BIG},17:30:36,17:46:41",
+            "17:39:37",
+            f"line 1: '4/1/{'9' * 36}…' is not a date M/D/YYYY {OF_YEARS}",
+        ),
+        (
+            "Toileting,4/1/2003,99999999999:30:36,17:46:41",
+            "17:39:37",
+            "line 1: '99999999999:30:36' is not a time H:M:S",
+        ),
+        ("Toileting,4/1/2003,17:30:36,17:46:41", "17:99:37", "line 4: '17:99:37' is not a time H:M:S"),
+    ],
+)
+def test_an_absurd_date_of_the_mit_data_names_file_and_line(capsys, tmp_path, head, on, why):
+    """Year 9999 with a time past midnight, a 12-digit day or a 12-digit hour overflowed
+    ``datetime`` (``OverflowError``, a traceback)."""
+    folder = mit_folder(tmp_path / "subject9", head, on)
+    one_line(
+        capsys,
+        ["adapt-mit", str(folder), "--out", str(tmp_path / "out")],
+        f"{folder / 'activities_data.csv'}: {why}",
+    )
+    assert not list(tmp_path.glob("out/*"))  # nothing written
+
+
+def test_mit_activities_over_centuries_are_refused_before_any_reading(capsys, tmp_path):
+    """Readings every 10 minutes of two centuries: ten million of them."""
+    folder = mit_folder(tmp_path / "subject9", "Toileting,4/1/1900,17:30:36,17:46:41")
+    with (folder / "activities_data.csv").open("a") as f:
+        f.write("Toileting,4/1/2100,17:30:36,17:46:41\n101\nLight switch\n17:39:37\n17:40:00\n")
+    one_line(
+        capsys,
+        ["adapt-mit", str(folder), "--out", str(tmp_path / "out")],
+        f"{folder / 'activities_data.csv'}: the activities span 73,049 days, 1900-04-01 to 2100-04-01; "
+        "a data set may span at most 366",
+    )
+
+
+def kasteren_folder(folder: Path, start: str, end: str) -> Path:
+    folder.mkdir()
+    (folder / "sensorMapA-ids.txt").write_text("1,Microwave,KitchHeat\n7,Cups cupboard,Kitchen\n")
+    (folder / "actionMapA.txt").write_text("15,use-toilet\n")
+    (folder / "houseA-as.txt").write_text(
+        f"25-Feb-2008 09:37:17\t25-Feb-2008 09:38:02\t15\n{start}\t{end}\t15\n"
+    )
+    (folder / "houseA-ss.txt").write_text("25-Feb-2008 09:37:20\t25-Feb-2008 09:37:23\t1\n")
+    return folder
+
+
+@pytest.mark.parametrize(
+    ("start", "end", "why"),
+    [
+        (
+            "25-Feb-0 09:37:17",
+            "25-Feb-2008 09:38:02",
+            f"line 2: '25-Feb-0 09:37:17' is not a time DD-Mon-YYYY HH:MM:SS {OF_YEARS}",
+        ),
+        (
+            "31-Dec-9999 23:50:00",
+            "31-Dec-9999 23:59:59",
+            f"line 2: '31-Dec-9999 23:50:00' is not a time DD-Mon-YYYY HH:MM:SS {OF_YEARS}",
+        ),
+        (
+            "25-Feb-99999999999999999999 09:37:17",
+            "25-Feb-2008 09:38:02",
+            f"line 2: '25-Feb-99999999999999999999 09:37:17' is not a time DD-Mon-YYYY HH:MM:SS {OF_YEARS}",
+        ),
+        (
+            "25-Feb-2008 99999999999999999999:37:17",
+            "25-Feb-2008 09:38:02",
+            f"line 2: '25-Feb-2008 99999999999999999999:37:17' is not a time DD-Mon-YYYY HH:MM:SS {OF_YEARS}",
+        ),
+        (
+            "25-Mon-2008 09:37:17",
+            "25-Feb-2008 09:38:02",
+            f"line 2: '25-Mon-2008 09:37:17' is not a time DD-Mon-YYYY HH:MM:SS {OF_YEARS}",
+        ),
+        (
+            "25-Feb-1900 09:37:17",
+            "25-Feb-2100 09:38:02",
+            "the activities span 73,049 days, 1900-02-25 to 2100-02-25; a data set may span at most 366",
+        ),
+    ],
+)
+def test_an_absurd_date_of_a_kasteren_house_names_file_and_line(capsys, tmp_path, start, end, why):
+    """A 20-digit year or hour overflowed ``datetime`` (``OverflowError``, a traceback)."""
+    folder = kasteren_folder(tmp_path / "house", start, end)
+    args = ["adapt-kasteren", str(folder), "--house", "A", "--out", str(tmp_path / "out")]
+    one_line(capsys, args, f"{folder / 'houseA-as.txt'}: {why}")
+    assert not list(tmp_path.glob("out/*"))  # nothing written
