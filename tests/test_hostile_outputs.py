@@ -8,6 +8,7 @@ from pathlib import Path
 import pytest
 
 from homecog.cli.main import main
+from homecog.home import load_home
 
 HOMES = Path(__file__).parent / "homes"
 EXAMPLES = Path(__file__).parent.parent / "docs" / "examples"
@@ -120,3 +121,58 @@ def test_a_recorder_is_never_written_over(capsys, inputs):
         ]
         refused(capsys, args, f"--out {recorder}: is the file of --recorder, an input; write elsewhere")
     assert recorder.read_bytes() == b"SQLite format 3\x00"
+
+
+# -- 6. what homecog keeps is private -----------------------------------------------------------------
+@pytest.fixture
+def umask_022():
+    """The usual umask, under which a file is made readable by everyone."""
+    old = os.umask(0o022)
+    yield
+    os.umask(old)
+
+
+def modes(root: Path) -> dict[str, int]:
+    return {str(p.relative_to(root)): p.stat().st_mode & 0o777 for p in sorted(root.rglob("*"))}
+
+
+def test_the_data_directory_is_private(capsys, tmp_path, monkeypatch, umask_022, studio_build):
+    """The knowledge database and the Q tables were made by the umask (0644), the folders 0755:
+    anyone on the machine could read what the household taught the robot."""
+    data = tmp_path / "new" / "data"
+    monkeypatch.setenv("HOMECOG_DATA", str(data))
+    home = str(HOMES / "studio.yaml")
+    assert main(["build", "--home", home, "--q", str(studio_build)]) == 0
+    assert main(["train", "--home", home, "--episodes", "200"]) == 0
+    capsys.readouterr()
+    found = modes(tmp_path / "new")
+    key = load_home(home).content_hash[:16]
+    assert found == {
+        "data": 0o700,
+        "data/knowledge": 0o700,
+        f"data/knowledge/studio-{key}.sqlite": 0o600,
+        "data/qtables": 0o700,
+        f"data/qtables/studio-{key}.npz": 0o600,
+    }
+    assert (tmp_path / "new").stat().st_mode & 0o777 == 0o700  # made by homecog too
+
+
+def test_a_database_anywhere_and_its_wal_are_private(tmp_path, umask_022, studio):
+    from homecog.knowledge.store import Store
+
+    folder = tmp_path.stat().st_mode
+    url = f"sqlite:///{tmp_path / 'k.sqlite'}"
+    store = Store.open(url, studio)
+    try:
+        live = modes(tmp_path)
+    finally:
+        store.close()
+    assert live == {"k.sqlite": 0o600, "k.sqlite-shm": 0o600, "k.sqlite-wal": 0o600}
+    assert tmp_path.stat().st_mode == folder  # a folder of the user's: as it was
+
+
+def test_a_q_table_written_anywhere_is_private(capsys, tmp_path, umask_022):
+    out = tmp_path / "made" / "q.npz"
+    assert main(["train", "--home", str(HOMES / "studio.yaml"), "--episodes", "200", "--out", str(out)]) == 0
+    capsys.readouterr()
+    assert modes(tmp_path) == {"made": 0o700, "made/q.npz": 0o600}

@@ -135,10 +135,14 @@ def check_not_input(path: Path, option: str, inputs: Mapping[str, object]) -> No
             raise UsageProblemError(f"{option} {path}: is the file of {given_as}, an input; write elsewhere")
 
 
-def check_writable(path: Path, option: str = "--out", inputs: Mapping[str, object] | None = None) -> None:
+def check_writable(
+    path: Path, option: str = "--out", inputs: Mapping[str, object] | None = None, *, private: bool = False
+) -> None:
     """Fail before the work, not after it, when ``path`` cannot be written: a folder, a device
     or a named pipe (a file is written beside and renamed over it: never over ``/dev/null``),
-    or one of the command's ``inputs`` (:func:`check_not_input`)."""
+    or one of the command's ``inputs`` (:func:`check_not_input`). ``private``: the folders it
+    makes for ``path`` are ``0700`` (a Q table's, as the data directory's)."""
+    from homecog.paths import make_private_dirs
     from homecog.text_files import not_to_write
 
     problem = not_to_write(path)
@@ -149,7 +153,10 @@ def check_writable(path: Path, option: str = "--out", inputs: Mapping[str, objec
     if blocker is not None:
         raise UsageProblemError(f"{option} {path}: cannot write there: {blocker} is not a directory")
     try:
-        path.parent.mkdir(parents=True, exist_ok=True)
+        if private:
+            make_private_dirs(path.parent)
+        else:
+            path.parent.mkdir(parents=True, exist_ok=True)
         with tempfile.NamedTemporaryFile(dir=path.parent, prefix=".homecog-check-"):
             pass
     except OSError as e:
