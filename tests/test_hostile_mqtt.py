@@ -93,3 +93,81 @@ def test_homecog_up_never_prints_the_broker_password(tmp_path):
     assert SECRET not in out
     assert f"the simulated home on mqtt://robot:***@127.0.0.1:{port}" in out
     assert f"MQTT discovery on mqtt://robot:***@127.0.0.1:{port}" in out
+
+
+# -- 8. a flood of unknown names ------------------------------------------------------------------------
+class Message:
+    """What paho hands the source: a topic and a payload."""
+
+    def __init__(self, topic: str, payload: bytes) -> None:
+        self.topic, self.payload = topic, payload
+
+
+@pytest.fixture
+def source():
+    from homecog.context.mqtt_source import MqttSource
+
+    return MqttSource(load_home("paper"), "mqtt://127.0.0.1:1")  # never started: no broker needed
+
+
+def records(caplog) -> list[str]:
+    return [r.getMessage() for r in caplog.records if r.name == "homecog.context.mqtt_source"]
+
+
+def test_one_message_of_200000_unknown_names_is_one_warning(source, caplog):
+    """It wrote 200,000 lines, one per name."""
+    import json
+
+    values = {f"k{i}": 1 for i in range(200_000)} | {"behavior": "sleep", "lamp": "maybe"}
+    start = time.perf_counter()
+    with caplog.at_level("WARNING"):
+        source._on_message(None, None, Message("homecog/paper/context", json.dumps(values).encode()))
+    assert time.perf_counter() - start < 2
+    assert records(caplog) == [
+        "MQTT homecog/paper/context: ignored 200,000 unknown names ('k0', 'k1', 'k2', 'k3', 'k4', … "
+        "(199,995 more)); 'maybe' for lamp: lamp: unknown state 'maybe'; expected on or off"
+    ]
+    assert source.rejected == 200_001
+    assert source._values == {"behavior": "sleep"}  # what fits is taken
+
+
+def test_at_most_ten_warnings_a_minute(source, caplog):
+    now = [0.0]
+    source.warnings.clock = lambda: now[0]
+    with caplog.at_level("WARNING"):
+        for i in range(100):
+            now[0] = i * 0.5  # 100 messages in 50 s
+            source._on_message(None, None, Message(f"homecog/paper/state/nothing{i}", b"1"))
+        assert len(records(caplog)) == 10
+        now[0] = 61.0
+        source._on_message(None, None, Message("homecog/paper/state/lamp", b"maybe"))
+    assert records(caplog)[-1] == (
+        "MQTT homecog/paper/state/lamp: ignored 'maybe' for lamp: lamp: unknown state 'maybe'; "
+        "expected on or off (and 90 more such warnings not logged)"
+    )
+    assert len(records(caplog)) == 11 and source.rejected == 101
+
+
+def test_a_message_past_its_size_is_not_read(source, caplog):
+    with caplog.at_level("WARNING"):
+        source._on_message(None, None, Message("homecog/paper/context", b"{" + b" " * (4 * 1024 * 1024)))
+    assert records(caplog) == [
+        "MQTT homecog/paper/context: ignored a message of 4,194,305 bytes, over the 4,194,304 a message "
+        "may have"
+    ]
+
+
+def test_the_mirror_s_bad_commands_are_limited_alike(caplog):
+    from homecog.context.mqtt_publisher import MqttPublisher
+
+    switched = []
+    mirror = MqttPublisher(
+        load_home("paper"), "mqtt://127.0.0.1:1", on_command=lambda d, on: switched.append(d)
+    )
+    with caplog.at_level("WARNING"):
+        for _ in range(100):
+            mirror._on_message(None, None, Message("homecog/paper/command/lamp", b"x" * 100_000))
+        mirror._on_message(None, None, Message("homecog/paper/command/lamp", b"on"))
+    lines = [r.getMessage() for r in caplog.records if r.name == "homecog.context.mqtt_publisher"]
+    assert len(lines) == 10 and all(len(line) < 300 for line in lines), lines[0]
+    assert switched == ["lamp"]
