@@ -5,6 +5,10 @@ Under the user's data directory (``~/.local/share/homecog`` on Linux), or
 changes gets new ones and a Q table is never used for another home. A home's name is an
 identifier (:mod:`homecog.names`), and :func:`data_file` checks it again: nothing homecog names
 after a home is ever outside the data directory.
+
+What homecog keeps is private to its user: the folders it makes are ``0700`` and its Q tables and
+SQLite databases ``0600`` (a database's ``-wal`` and ``-shm`` files take its mode), whatever the
+umask; folders that were there before are left as they are.
 """
 
 from __future__ import annotations
@@ -44,6 +48,34 @@ def data_file(folder: str, home: Home, suffix: str) -> Path:
     return data_dir() / folder / f"{home.name}-{home.content_hash[:16]}{suffix}"
 
 
+#: the modes of what homecog keeps: its folders and its files
+PRIVATE_DIR, PRIVATE_FILE = 0o700, 0o600
+
+
+def make_private_dirs(folder: Path) -> None:
+    """Make ``folder`` and the folders above it that are missing, each ``0700`` (``mkdir -p``
+    makes intermediate ones by the umask); OSError where one cannot be made."""
+    missing = [p for p in (folder, *folder.parents) if not p.exists()]
+    for path in reversed(missing):
+        try:
+            path.mkdir(mode=PRIVATE_DIR)
+        except FileExistsError:  # made meanwhile by another process
+            continue
+        os.chmod(path, PRIVATE_DIR)  # mkdir's mode passes through the umask
+    if not folder.is_dir():
+        raise NotADirectoryError(20, "Not a directory", str(folder))
+
+
+def create_private_file(path: Path) -> None:
+    """Create ``path`` empty with mode ``0600`` unless it exists (a SQLite database about to be
+    made: SQLite would make it by the umask, readable by everyone)."""
+    try:
+        fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_CLOEXEC", 0), PRIVATE_FILE)
+    except FileExistsError:
+        return
+    os.close(fd)
+
+
 def q_table_path(home: Home, *, joint: bool = False) -> Path:
     """The cached Q tables of a home: learned group by group, or (``joint``) as one table."""
     return data_file("qtables", home, "-joint.npz" if joint else ".npz")
@@ -61,16 +93,13 @@ def atomic_write(path: Path, error: type[Exception]) -> Iterator[BinaryIO]:
     if problem is not None:
         raise error(f"{path}: {problem}")
     try:
-        path.parent.mkdir(parents=True, exist_ok=True)
+        make_private_dirs(path.parent)
         fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
     except OSError as e:
         raise error(f"{path}: cannot write: {e.strerror}") from None
     try:
-        with os.fdopen(fd, "wb") as f:
+        with os.fdopen(fd, "wb") as f:  # mkstemp's file is 0600: it stays private
             yield f
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes it private; what we write is not secret
         os.replace(tmp, path)
     except OSError as e:
         Path(tmp).unlink(missing_ok=True)

@@ -210,6 +210,20 @@ def timestamp_cell(text: str, path: Path, line: int, error: type[Exception]) -> 
         raise error(f"{path}: line {line}, column timestamp: {text!r} is not an ISO 8601 time") from None
 
 
+def check_zone(path: Path, line: int, at: datetime, zoned: tuple[bool, int], error: type[Exception]) -> None:
+    """Refuse a timestamp with a time zone in a file whose first had none, or the other way
+    (``zoned``: whether the first had one, and its line): such times cannot be compared.
+
+    >>> check_zone(Path("e.csv"), 3, datetime.fromisoformat("2024-03-01T07:00+01:00"), (False, 2), ValueError)
+    Traceback (most recent call last):
+    ...
+    ValueError: e.csv: line 3, column timestamp: has a time zone, unlike line 2's
+    """
+    if (at.tzinfo is not None) != zoned[0]:
+        with_zone = "has a time zone" if at.tzinfo else "has no time zone"
+        raise error(f"{path}: line {line}, column timestamp: {with_zone}, unlike line {zoned[1]}'s")
+
+
 def check_header_unique(header: Sequence[str], path: Path, error: type[Exception]) -> None:
     """A header whose columns each have their own name; ``error`` naming the path and those named
     twice otherwise (which of two cells of one name would be read is nobody's guess).

@@ -412,7 +412,7 @@ def test_a_broken_house_file_names_file_and_line(tmp_path: Path, capsys: pytest.
     assert main(["adapt-kasteren", str(tmp_path), "--house", "A", "--out", str(tmp_path / "out")]) == 2
     assert capsys.readouterr().err == (
         f"homecog: error: {tmp_path / 'houseA-ss.txt'}: line 2: '25-Fbr-2008 09:37:20' is not a time "
-        "DD-Mon-YYYY HH:MM:SS\n"
+        "DD-Mon-YYYY HH:MM:SS of the years 1900 to 2100\n"
     )
 
 

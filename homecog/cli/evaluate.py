@@ -16,6 +16,7 @@ from homecog.cli.options import (
     JsonOption,
     MethodsOption,
     check_conversion,
+    check_not_input,
     check_readable,
     check_writable,
     method_names,
@@ -88,7 +89,7 @@ def eval_command(
     names = method_names(methods)
     cases = _scenarios(scenarios)
     if report is not None:
-        check_writable(report / "report.md", "--report")
+        check_writable(report / "report.md", "--report", inputs={"--scenarios": scenarios, "--home": home})
     result = run_eval(
         h,
         t,
@@ -170,7 +171,7 @@ def _closed_loop(
                 f"--start {start}: {days} day{'s' * (days != 1)} from then is past the year 9999"
             )
     if report is not None:
-        check_writable(report / "household.md", "--report")
+        check_writable(report / "household.md", "--report", inputs={"--home": h.source})
     store = Store.open(db or "sqlite://", h)
     try:
         tree = open_tree(h, store, progress=status)
@@ -228,8 +229,9 @@ def replay(
     h = load_home(home)
     names = method_names(methods)
     if report is not None:
-        check_writable(report / "replay.md", "--report")
+        check_writable(report / "replay.md", "--report", inputs={"--events": events, "--home": home})
     if predictions is not None:
+        check_not_input(predictions, "--predictions", {"--events": events, "--home": home})
         _check_file("--predictions", predictions)
     result = run_replay(
         h, events, methods=names, seed=seed, joint=joint, progress=status, predictions=predictions

@@ -35,7 +35,7 @@ def export_pyrobosim(
             f"--planner: unknown path planner {planner!r}; expected one of {', '.join(PLANNERS)}"
         )
     h = load_home(home)
-    check_writable(out)
+    check_writable(out, inputs={"--home": home})
     world = pyrobosim_world(h, planner=planner)
     files = world.write(out)
     names = world.names()

@@ -33,12 +33,14 @@ def _token(given: str | None) -> str:
     return given or os.environ.get("HOMECOG_HA_TOKEN", "")
 
 
-def _writable(path: Path, option: str = "--out") -> None:
+def _writable(path: Path, option: str = "--out", inputs: dict[str, object] | None = None) -> None:
+    from homecog.cli.options import check_not_input
     from homecog.text_files import not_to_write
 
     problem = not_to_write(path)
     if problem is not None:
         raise HomeAssistantError(f"{option} {path}: {problem}")
+    check_not_input(path, option, inputs or {})
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
     except OSError as e:
@@ -80,7 +82,7 @@ def history(
     from homecog.evaluation.ha_history import read_history
 
     h = load_home(home)
-    _writable(out)
+    _writable(out, inputs={"--recorder": recorder, "--home": home})
     robots: tuple[str, ...] = ()
     if home_assistant is not None:
         from homecog.context.ha_client import query

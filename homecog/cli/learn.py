@@ -78,7 +78,7 @@ def train(
         raise UsageProblemError(f"episodes must be at most {INT64_MAX}, got {episodes}")
     size = check_size(h, joint=joint)
     path = out if out is not None else q_table_path(h, joint=joint)
-    check_writable(path)
+    check_writable(path, inputs={"--home": home}, private=True)
     starts = h.context_count << len(h.devices)
     with progress_bar(f"Sarsa on {h.name}", config.episodes if joint else 1) as update:
         result = train_policy(h, config, joint=joint, episodes=None if joint else episodes, progress=update)

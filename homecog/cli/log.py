@@ -46,7 +46,7 @@ def events(
 
     h = load_home(home)
     check_readable(log, "--log", "a log file")
-    check_writable(out)
+    check_writable(out, inputs={"--log": log, "--home": home})
     result = convert_log(h, log, out, quiet=quiet, exclude_users=exclude_user or ())
     if json:
         emit_json(result.as_dict())

@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import os
 import tempfile
+from collections.abc import Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated
 
@@ -25,6 +27,7 @@ __all__ = [
     "TokenOption",
     "UserOption",
     "check_conversion",
+    "check_not_input",
     "check_readable",
     "check_writable",
     "method_names",
@@ -112,19 +115,48 @@ def check_readable(path: Path, option: str, what: str, limit: int | None = None)
         raise UsageProblemError(f"{option} {e}") from None
 
 
-def check_writable(path: Path, option: str = "--out") -> None:
+def check_not_input(path: Path, option: str, inputs: Mapping[str, object]) -> None:
+    """Refuse to write ``path`` when it is one of the command's input files, ``inputs`` (option
+    → path, or a home's name or a URL, which are no file): the same file whether named alike,
+    through a link or by another hard link, so its output never overwrites what it reads."""
+    try:
+        out = os.stat(path)
+    except (OSError, ValueError):
+        return  # a file not there yet is no input
+    for given_as, given in inputs.items():
+        if given is None:
+            continue
+        text = str(given).removeprefix("sqlite:///") if str(given).startswith("sqlite:///") else str(given)
+        try:
+            same = os.path.samestat(out, os.stat(text))
+        except (OSError, ValueError):
+            continue
+        if same:
+            raise UsageProblemError(f"{option} {path}: is the file of {given_as}, an input; write elsewhere")
+
+
+def check_writable(
+    path: Path, option: str = "--out", inputs: Mapping[str, object] | None = None, *, private: bool = False
+) -> None:
     """Fail before the work, not after it, when ``path`` cannot be written: a folder, a device
-    or a named pipe (a file is written beside and renamed over it: never over ``/dev/null``)."""
+    or a named pipe (a file is written beside and renamed over it: never over ``/dev/null``),
+    or one of the command's ``inputs`` (:func:`check_not_input`). ``private``: the folders it
+    makes for ``path`` are ``0700`` (a Q table's, as the data directory's)."""
+    from homecog.paths import make_private_dirs
     from homecog.text_files import not_to_write
 
     problem = not_to_write(path)
     if problem is not None:
         raise UsageProblemError(f"{option} {path}: {problem}")
+    check_not_input(path, option, inputs or {})
     blocker = next((p for p in path.parents if p.exists() and not p.is_dir()), None)
     if blocker is not None:
         raise UsageProblemError(f"{option} {path}: cannot write there: {blocker} is not a directory")
     try:
-        path.parent.mkdir(parents=True, exist_ok=True)
+        if private:
+            make_private_dirs(path.parent)
+        else:
+            path.parent.mkdir(parents=True, exist_ok=True)
         with tempfile.NamedTemporaryFile(dir=path.parent, prefix=".homecog-check-"):
             pass
     except OSError as e:

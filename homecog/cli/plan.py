@@ -93,7 +93,7 @@ def simulate(
 
     h = load_home(home)
     if png is not None:
-        check_writable(png, "--png")
+        check_writable(png, "--png", inputs={"--home": home})
     if bag is not None:
         check_bag_folder(bag)
     result = _plan(h, services, context)

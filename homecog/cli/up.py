@@ -153,7 +153,10 @@ def up(
             from homecog.robot.announce import announce
 
             stack.callback(announce(runtime, broker).start(wait=False).stop)
-            say(f"in Home Assistant by MQTT discovery on {broker}: the robot's services, last action, undo")
+            say(
+                f"in Home Assistant by MQTT discovery on {_shown(broker)}: the robot's services, "
+                "last action, undo"
+            )
         say(f"knowledge: {redact(store.url)} ({store.experience_count():,} experiences)", style="dim")
         say(f"homecog is up: http://{url_host(host)}:{port}")
         live = speed if outside is None else 1.0  # a real home's own clock
@@ -198,18 +201,25 @@ def _mqtt(home: Home, url: str, ha_token: str | None) -> Any:
     return MqttSource(home, url)
 
 
+def _shown(url: str) -> str:
+    """A broker's (or any) URL as it is printed: never with its password."""
+    from homecog.context.mqtt_broker import redact_url
+
+    return redact_url(url)
+
+
 #: The option naming each outside source → how it is made, started and said.
 OUTSIDE = {
     "home_assistant": OutsideSource(
         _home_assistant,
         early=True,
-        said=lambda home, url, source: f"context from Home Assistant {source.version} at {url}",
+        said=lambda home, url, source: f"context from Home Assistant {source.version} at {_shown(url)}",
     ),
     "mqtt": OutsideSource(
         _mqtt,
         early=False,
         said=lambda home, url, source: (
-            f"context from {url}: topics homecog/{home.name}/state/<name>, "
+            f"context from {_shown(url)}: topics homecog/{home.name}/state/<name>, "
             f"commands to homecog/{home.name}/command/<device>"
         ),
     ),
@@ -298,7 +308,7 @@ def _mirror(home: Home, url: str, source: Any, runtime: Any, stack: contextlib.E
     mirror.publish(source.snapshot(), everything=True)
     runtime.watchers.append(mirror.publish)
     stdout.print(
-        f"the simulated home on {url}: states to homecog/{home.name}/state/<name>, "
+        f"the simulated home on {_shown(url)}: states to homecog/{home.name}/state/<name>, "
         f"commands from homecog/{home.name}/command/<device>"
     )
 

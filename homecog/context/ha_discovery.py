@@ -55,6 +55,7 @@ from typing import Any
 
 import paho.mqtt.client as mqtt
 
+from homecog.context.limited_log import LimitedWarnings
 from homecog.context.mqtt_broker import DEFAULT_PREFIX, BrokerClient, command_topic, state_topic
 from homecog.home.model import Home
 
@@ -181,6 +182,7 @@ class HomeAssistantDiscovery(BrokerClient):
 
     def __post_init__(self) -> None:
         super().__post_init__()
+        self.warnings = LimitedWarnings(log)  # at most so many a minute, whatever the broker sends
         home, prefix = self.home, self.prefix
         self.configs = discovery_configs(home, prefix=prefix, discovery_prefix=self.discovery_prefix)
         self.presses = 0
@@ -264,7 +266,7 @@ class HomeAssistantDiscovery(BrokerClient):
                 self._announce(client)
             return
         if payload != PRESS:
-            log.warning("MQTT: %r on %s ignored; expected %r", payload[:40], message.topic, PRESS)
+            self.warnings.warning("MQTT: %r on %s ignored; expected %r", payload[:40], message.topic, PRESS)
             return
         self.presses += 1
         if self.on_undo is not None:

@@ -26,17 +26,21 @@ Topic names and URLs need no broker:
 ('homecog/paper/context', 'homecog/paper/command/lamp')
 >>> state_topic(home, "temperature"), command_topic(home, "window", prefix="lab")
 ('homecog/paper/state/temperature', 'lab/paper/command/window')
->>> parse_url("mqtts://robot:secret@broker.local")
-BrokerAddress(host='broker.local', port=8883, tls=True, username='robot', password='secret')
+>>> address = parse_url("mqtts://robot:secret@broker.local")
+>>> address, address.password
+(BrokerAddress(host='broker.local', port=8883, tls=True, username='robot'), 'secret')
+
+A URL is shown, printed or logged only through :func:`redact_url`, never with its password.
 """
 
 from __future__ import annotations
 
 import logging
+import re
 import ssl
 import threading
 import uuid
-from dataclasses import KW_ONLY, dataclass
+from dataclasses import KW_ONLY, dataclass, field
 from typing import Any, Self
 from urllib.parse import unquote, urlsplit
 
@@ -60,35 +64,58 @@ class BrokerAddress:
     port: int
     tls: bool = False
     username: str | None = None
-    password: str | None = None
+    password: str | None = field(default=None, repr=False)
+
+
+def redact_url(url: str) -> str:
+    """A broker URL as it may be shown: its password (whatever it holds, even a raw ``/`` or
+    ``@``) replaced by ``***``, as the database URLs are (:func:`homecog.knowledge.database.redact`).
+
+    >>> redact_url("mqtt://robot:s3cret@broker.local:1883"), redact_url("mqtt://127.0.0.1")
+    ('mqtt://robot:***@broker.local:1883', 'mqtt://127.0.0.1')
+    >>> redact_url("mqtts://robot:a/b@c@broker.local"), redact_url("mqtt://robot@host")
+    ('mqtts://robot:***@broker.local', 'mqtt://robot@host')
+    >>> redact_url("robot:s3cret@broker.local"), redact_url("robot:a//b@broker.local")
+    ('robot:***@broker.local', 'robot:***@broker.local')
+    """
+    text = str(url)
+    at = text.rfind("@")
+    if at < 0:
+        return text
+    scheme = re.match(r"[A-Za-z][A-Za-z0-9+.-]*://", text)
+    begin = scheme.end() if scheme and scheme.end() <= at else 0  # none: the user is first (u:pw@h)
+    user, colon, _ = text[begin:at].partition(":")
+    return f"{text[:begin]}{user}{':***' if colon else ''}{text[at:]}"
 
 
 def parse_url(url: str) -> BrokerAddress:
     """A broker URL (``mqtt://`` or ``mqtts://`` for TLS) as a :class:`BrokerAddress`.
 
     >>> parse_url("mqtt://127.0.0.1")
-    BrokerAddress(host='127.0.0.1', port=1883, tls=False, username=None, password=None)
+    BrokerAddress(host='127.0.0.1', port=1883, tls=False, username=None)
     >>> parse_url("http://x")
     Traceback (most recent call last):
     ...
     homecog.errors.MqttError: MQTT URL 'http://x': unknown scheme 'http'; expected mqtt:// or mqtts://
     """
+    shown = redact_url(str(url).strip())  # a message never holds the password
     try:
         parts = urlsplit(str(url).strip())
         port = parts.port
     except ValueError as e:
-        raise MqttError(f"MQTT URL {url!r}: {e}") from None
+        what = "a port that is no number from 0 to 65535" if "ort" in str(e) else "not a URL"
+        raise MqttError(f"MQTT URL {shown!r}: {what}; expected e.g. mqtt://127.0.0.1:1883") from None
     scheme = parts.scheme.lower()
     if scheme not in ("mqtt", "mqtts"):
         raise MqttError(
-            f"MQTT URL {url!r}: unknown scheme {parts.scheme!r}; expected mqtt:// or mqtts://"
+            f"MQTT URL {shown!r}: unknown scheme {parts.scheme!r}; expected mqtt:// or mqtts://"
             if scheme
-            else f"MQTT URL {url!r}: expected e.g. mqtt://127.0.0.1:1883"
+            else f"MQTT URL {shown!r}: expected e.g. mqtt://127.0.0.1:1883"
         )
     if not parts.hostname:
-        raise MqttError(f"MQTT URL {url!r}: no host; expected e.g. mqtt://127.0.0.1:1883")
+        raise MqttError(f"MQTT URL {shown!r}: no host; expected e.g. mqtt://127.0.0.1:1883")
     if parts.path not in ("", "/") or parts.query or parts.fragment:
-        raise MqttError(f"MQTT URL {url!r}: unexpected path or query; expected mqtt://host:port")
+        raise MqttError(f"MQTT URL {shown!r}: unexpected path or query; expected mqtt://host:port")
     tls = scheme == "mqtts"
     return BrokerAddress(
         host=parts.hostname,

@@ -14,6 +14,7 @@ from typing import Any
 
 import paho.mqtt.client as mqtt
 
+from homecog.context.limited_log import LimitedWarnings
 from homecog.context.mqtt_broker import (
     CONNECT_TIMEOUT,
     DEFAULT_PREFIX,
@@ -21,7 +22,7 @@ from homecog.context.mqtt_broker import (
     command_topic,
     state_topic,
 )
-from homecog.errors import ContextError
+from homecog.errors import ContextError, one_line
 from homecog.home.codec import normalize
 from homecog.home.model import Home
 from homecog.home.states import parse_state
@@ -47,6 +48,7 @@ class MqttPublisher(BrokerClient):
 
     def __post_init__(self) -> None:
         super().__post_init__()
+        self.warnings = LimitedWarnings(log)  # at most so many a minute, whatever the broker sends
         self._published: dict[str, str] = {}
         self._pending: list[mqtt.MQTTMessageInfo] = []
         self._lock = threading.Lock()  # publish is called from the simulation and paho threads
@@ -107,7 +109,7 @@ class MqttPublisher(BrokerClient):
             if self.on_command is not None:
                 self.on_command(device, on)
         except Exception as e:
-            log.warning("MQTT command on %s ignored: %s", message.topic, e)
+            self.warnings.warning("MQTT command on %s ignored: %s", message.topic, one_line(str(e), 200))
 
 
 def publish_context(

@@ -2,10 +2,13 @@
 switches published to it as commands.
 
 The topic layout is :mod:`homecog.context.mqtt_broker`'s. A value that does not fit the home (an
-unknown category, not a number, outside every bin) is ignored with a logged warning and counted
-in :attr:`MqttSource.rejected`. A broker that goes away is reconnected to (with a growing delay,
-at most :data:`~homecog.context.mqtt_broker.MAX_RECONNECT_DELAY` seconds) and the topics are
-subscribed to again; retained states arrive anew.
+unknown category, not a number, outside every bin, a name the home does not have) is ignored and
+counted in :attr:`MqttSource.rejected`, with one logged warning per message however many it
+ignores, and at most :data:`~homecog.context.limited_log.PER_MINUTE` such warnings a minute
+(:mod:`homecog.context.limited_log`): one message of 200,000 unknown names wrote 200,000 lines.
+A message is at most :data:`MAX_PAYLOAD` bytes. A broker that goes away is reconnected to (with a
+growing delay, at most :data:`~homecog.context.mqtt_broker.MAX_RECONNECT_DELAY` seconds) and the
+topics are subscribed to again; retained states arrive anew.
 
 Against a broker (not run as a doctest)::
 
@@ -29,12 +32,15 @@ from typing import Any
 import paho.mqtt.client as mqtt
 
 from homecog.context import ConnectedSource, DeviceChange
+from homecog.context.limited_log import LimitedWarnings
 from homecog.context.mqtt_broker import BrokerClient, command_topic
 from homecog.errors import ContextError
 from homecog.home.codec import normalize
 from homecog.home.states import state_word
 
 log = logging.getLogger(__name__)
+MAX_PAYLOAD = 4 * 1024 * 1024  # bytes of one message (a context of 1,002 devices is about 30 kB)
+NAMED = 5  # the unknown names a warning names
 
 
 @dataclass(eq=False, repr=False, kw_only=True)
@@ -61,6 +67,8 @@ class MqttSource(BrokerClient, ConnectedSource):
         self._lock = threading.Lock()
         self._changed = threading.Condition(self._lock)
         self._base = f"{self.prefix}/{self.home.name}"
+        self._known = set(self._names)
+        self.warnings = LimitedWarnings(log)
 
     # -- lifecycle -------------------------------------------------------------------
     def stop(self) -> None:
@@ -134,6 +142,16 @@ class MqttSource(BrokerClient, ConnectedSource):
             log.exception("MQTT message on %s could not be handled", message.topic)
 
     def _receive(self, topic: str, payload: bytes) -> None:
+        if len(payload) > MAX_PAYLOAD:
+            with self._lock:
+                self.rejected += 1
+            self.warnings.warning(
+                "MQTT %s: ignored a message of %s bytes, over the %s a message may have",
+                topic,
+                f"{len(payload):,}",
+                f"{MAX_PAYLOAD:,}",
+            )
+            return
         if topic == f"{self._base}/context":
             try:
                 values = json.loads(payload.decode("utf-8"))
@@ -157,11 +175,18 @@ class MqttSource(BrokerClient, ConnectedSource):
         """Take values as if received; invalid ones are ignored and counted. Returns whether
         anything changed."""
         accepted: dict[str, str] = {}
+        unknown: list[str] = []
+        bad: list[tuple[str, object, str]] = []
         for name, value in values.items():
+            if name not in self._known:
+                unknown.append(str(name))
+                continue
             try:
                 accepted[name] = normalize(self.home, name, value)
             except ContextError as e:
-                self._reject(topic, value, str(e))
+                bad.append((name, value, str(e)))
+        if unknown or bad:
+            self._rejected(topic, unknown, bad)
         with self._changed:
             changed = {n: v for n, v in accepted.items() if self._values.get(n) != v}
             was_complete = all(n in self._values for n in self._names)
@@ -196,4 +221,26 @@ class MqttSource(BrokerClient, ConnectedSource):
     def _reject(self, topic: str, payload: object, why: str) -> None:
         with self._lock:
             self.rejected += 1
-        log.warning("MQTT %s: ignored %r: %s", topic, payload, why)
+        self.warnings.warning("MQTT %s: ignored %s: %s", topic, _short(payload), why)
+
+    def _rejected(self, topic: str, unknown: list[str], bad: list[tuple[str, object, str]]) -> None:
+        """Count the values of one message that were ignored and say so in one warning: how many
+        names the home does not have (the first :data:`NAMED` of them) and the first bad value."""
+        with self._lock:
+            self.rejected += len(unknown) + len(bad)
+        parts = []
+        if unknown:
+            more = f", … ({len(unknown) - NAMED:,} more)" if len(unknown) > NAMED else ""
+            names = ", ".join(_short(n) for n in unknown[:NAMED])
+            parts.append(f"{len(unknown):,} unknown name{'s' * (len(unknown) != 1)} ({names}{more})")
+        if bad:
+            name, value, why = bad[0]
+            more = f" and {len(bad) - 1:,} more" if len(bad) > 1 else ""
+            parts.append(f"{_short(value)} for {name}: {why}{more}")
+        self.warnings.warning("MQTT %s: ignored %s", topic, "; ".join(parts))
+
+
+def _short(value: object, limit: int = 40) -> str:
+    """A value as a warning quotes it: its repr, of at most ``limit`` characters."""
+    text = repr(value)
+    return text if len(text) <= limit else text[: limit - 1] + "…"

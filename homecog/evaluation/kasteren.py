@@ -45,8 +45,19 @@ from pathlib import Path
 
 from homecog.errors import RealDataError
 from homecog.evaluation.log_events import LogEvents, convert_log
-from homecog.evaluation.log_writer import DEVICE, PRESENCE, LogWriter, camel, home_name, slug
+from homecog.evaluation.log_writer import (
+    DEVICE,
+    PRESENCE,
+    YEARS,
+    LogWriter,
+    camel,
+    check_span,
+    home_name,
+    slug,
+    small_numbers,
+)
 from homecog.home import load_home
+from homecog.home.shapes import quoted
 from homecog.text_files import check_file
 
 HOUSES = ("A", "B", "C")
@@ -126,11 +137,15 @@ def parse_time(text: str, path: Path, line: int) -> datetime:
     try:
         day, month, rest = text.strip().split("-")
         year, clock = rest.split(" ")
-        hour, minute, second = (int(x) for x in clock.split(":"))
-        return datetime(int(year), MONTHS[month], int(day), hour, minute, second)
+        hour, minute, second = small_numbers(clock, ":", (2, 2, 2))
+        (mday,), (number,) = small_numbers(day, "-", (2,)), small_numbers(year, "-", (4,))
+        if number not in YEARS:
+            raise ValueError(year)
+        return datetime(number, MONTHS[month], mday, hour, minute, second)
     except (ValueError, KeyError):
         raise RealDataError(
-            f"{path}: line {line}: {text.strip()!r} is not a time DD-Mon-YYYY HH:MM:SS"
+            f"{path}: line {line}: {quoted(text.strip())} is not a time DD-Mon-YYYY HH:MM:SS of the "
+            f"years {YEARS[0]} to {YEARS[-1]}"
         ) from None
 
 
@@ -210,7 +225,9 @@ def convert(folder: Path, house: str, out: Path, name: str | None = None) -> Hou
     devices = {s.device: s for s in sensors.values() if s.device}
     if not devices:
         raise RealDataError(f"{path(f'sensorMap{house}-ids')}: no appliance among the sensors")
-    log = LogWriter(min(s for s, _, _ in activities), max(e for _, e, _ in activities))
+    first, last = min(s for s, _, _ in activities), max(e for _, e, _ in activities)
+    check_span(first, last, path(f"house{house}-as"))
+    log = LogWriter(first, last)
     log.activities("activity", activities)
     per_sensor: dict[str, list[tuple[datetime, datetime]]] = {}
     for start, end, sid in firings:

@@ -53,7 +53,7 @@ from homecog.home.home_assistant import FeatureEntity
 from homecog.home.home_assistant import feature_value as entity_value
 from homecog.home.log_section import LogDevice, LogFeature, LogMap
 from homecog.home.model import Feature, Home
-from homecog.text_files import ROWS_FILE_LIMIT, check_header_unique, read_text, timestamp_cell
+from homecog.text_files import ROWS_FILE_LIMIT, check_header_unique, check_zone, read_text, timestamp_cell
 
 COLUMNS = ("timestamp", "entity", "state")
 REASONS = (
@@ -173,7 +173,7 @@ def _read_rows(path: Path, reader: Any) -> tuple[list[LogRow], int, int]:
             continue
         row = _row(path, reader.line_num, cells, where, len(header))
         zoned = zoned or (row.at.tzinfo is not None, reader.line_num)
-        _check_zone(path, reader.line_num, row.at, zoned)
+        check_zone(path, reader.line_num, row.at, zoned, LogFileError)
         key = (row.at, row.entity, row.state, row.user)
         if key in seen:
             duplicates += 1
@@ -212,13 +212,6 @@ def _row(path: Path, line: int, cells: list[str], where: dict[str, int], width: 
     at = timestamp_cell(cells[where["timestamp"]].strip(), path, line, LogFileError)
     user = (cells[where["user"]].strip() or None) if "user" in where else None
     return LogRow(at, cells[where["entity"]].strip(), cells[where["state"]].strip(), user)
-
-
-def _check_zone(path: Path, line: int, at: datetime, zoned: tuple[bool, int]) -> None:
-    """Refuse a timestamp with a time zone in a log whose first had none, or the other way."""
-    if (at.tzinfo is not None) != zoned[0]:
-        with_zone = "has a time zone" if at.tzinfo else "has no time zone"
-        raise LogFileError(f"{path}: line {line}, column timestamp: {with_zone}, unlike line {zoned[1]}'s")
 
 
 def _text(path: Path) -> str:

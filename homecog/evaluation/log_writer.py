@@ -30,6 +30,11 @@ from homecog.home.states import state_word
 from homecog.names import home_name_problem
 
 Interval = tuple[datetime, datetime]
+#: the years a data set's dates may be of (the real ones: 2003, 2008 and 2009)
+YEARS = range(1900, 2101)
+#: the most days a data set's labelled activities may span (the real ones: two to four weeks);
+#: the MIT adapter writes an illumination reading every 10 minutes of it
+MAX_SPAN_DAYS = 366
 # the order of rows at one time: a device's first state, then the activity, presence, devices
 FIRST, ACTIVITY, PRESENCE, DEVICE = range(4)
 
@@ -55,6 +60,37 @@ def home_name(given: str | None, default: str) -> str:
     if problem is not None:
         raise RealDataError(problem if given is None else f"--name: {problem}")
     return name
+
+
+def small_numbers(text: str, sep: str, widths: Sequence[int]) -> tuple[int, ...]:
+    """The numbers of ``text`` split at ``sep``, each of at most its width in ASCII digits;
+    ValueError otherwise (never a 5,000-digit integer, never a year past a date's range).
+
+    >>> small_numbers("4/31/2003", "/", (2, 2, 4))
+    (4, 31, 2003)
+    >>> small_numbers("4/1/99999", "/", (2, 2, 4))
+    Traceback (most recent call last):
+    ...
+    ValueError: not 3 numbers of at most 2, 2, 4 digits
+    """
+    parts = [p.strip() for p in text.strip().split(sep)]
+    fits = len(parts) == len(widths) and all(
+        0 < len(p) <= w and p.isascii() and p.isdigit() for p, w in zip(parts, widths, strict=False)
+    )
+    if not fits:
+        raise ValueError(f"not {len(widths)} numbers of at most {', '.join(map(str, widths))} digits")
+    return tuple(int(p) for p in parts)
+
+
+def check_span(start: datetime, end: datetime, path: Path) -> None:
+    """Refuse labelled activities (of the file ``path``) that span more than
+    :data:`MAX_SPAN_DAYS` days: a log, and readings, over centuries of a hostile file."""
+    days = (end - start).days
+    if days > MAX_SPAN_DAYS:
+        raise RealDataError(
+            f"{path}: the activities span {days:,} days, {start:%Y-%m-%d} to {end:%Y-%m-%d}; "
+            f"a data set may span at most {MAX_SPAN_DAYS}"
+        )
 
 
 def camel(text: str) -> str:

@@ -42,8 +42,20 @@ from pathlib import Path
 
 from homecog.errors import RealDataError
 from homecog.evaluation.log_events import convert_log
-from homecog.evaluation.log_writer import ACTIVITY, DEVICE, PRESENCE, LogWriter, camel, home_name, slug
+from homecog.evaluation.log_writer import (
+    ACTIVITY,
+    DEVICE,
+    PRESENCE,
+    YEARS,
+    LogWriter,
+    camel,
+    check_span,
+    home_name,
+    slug,
+    small_numbers,
+)
 from homecog.home import load_home
+from homecog.home.shapes import quoted
 from homecog.text_files import check_file
 
 __all__ = ["behavior_of", "convert", "illumination", "read_activities", "read_sensors"]
@@ -82,12 +94,14 @@ class Activity:
 
 
 def _time(day: date, text: str, path: Path, line: int) -> datetime:
-    parts = text.strip().split(":")
+    """A time of ``day``, H:M:S (hours below 24, minutes and seconds below 60)."""
     try:
-        h, m, s = (int(p) for p in parts)
-        return datetime(day.year, day.month, day.day) + timedelta(hours=h, minutes=m, seconds=s)
+        h, m, s = small_numbers(text, ":", (2, 2, 2))
+        if h > 23 or m > 59 or s > 59:
+            raise ValueError(text)
     except ValueError:
-        raise RealDataError(f"{path}: line {line}: {text!r} is not a time H:M:S") from None
+        raise RealDataError(f"{path}: line {line}: {quoted(text)} is not a time H:M:S") from None
+    return datetime(day.year, day.month, day.day) + timedelta(hours=h, minutes=m, seconds=s)
 
 
 def read_sensors(path: Path) -> dict[str, tuple[str, str]]:
@@ -147,13 +161,18 @@ def _activity(path: Path, lines: list[str], i: int) -> Activity:
 
 
 def _day(path: Path, line: int, text: str) -> date:
-    """An activity's date, M/D/YYYY."""
+    """An activity's date, M/D/YYYY of the years :data:`YEARS`."""
     try:
-        month, mday, year = (int(x) for x in text.strip().split("/"))
+        month, mday, year = small_numbers(text, "/", (2, 2, 4))
+        if year not in YEARS or not 1 <= mday <= 31:
+            raise ValueError(text)
         # the data has 4/31/2003: a day past the month's end rolls over, as a clock would
         return date(year, month, 1) + timedelta(days=mday - 1)
     except ValueError:
-        raise RealDataError(f"{path}: line {line}: {text!r} is not a date M/D/YYYY") from None
+        raise RealDataError(
+            f"{path}: line {line}: {quoted(text)} is not a date M/D/YYYY of the years "
+            f"{YEARS[0]} to {YEARS[-1]}"
+        ) from None
 
 
 def behavior_of(name: str) -> str:
@@ -195,6 +214,7 @@ def convert(folder: Path, out: Path, name: str | None = None) -> tuple[Path, Pat
             device_of[sid] = device
     if not devices:
         raise RealDataError(f"{folder}: no light switch, lamp, TV or fan among the sensors")
+    check_span(activities[0].start, max(a.end for a in activities), folder / "activities_data.csv")
     log = LogWriter(activities[0].start, max(a.end for a in activities))
     log.activities("activity", [(a.start, a.end, a.name) for a in activities])
     firings: dict[str, list[tuple[datetime, datetime]]] = {d: [] for d in devices}

@@ -29,7 +29,8 @@ def clock_hours(text: str | float | int) -> float:
     s = str(text).strip()
     if ":" in s:
         parts = s.split(":")
-        if len(parts) not in (2, 3) or not all(p.strip().isdigit() for p in parts):
+        digits = all(p.strip().isdigit() and len(p.strip()) <= 9 for p in parts)  # 10**5000: no int
+        if len(parts) not in (2, 3) or not digits:
             raise ValueError(f"not a time: {text!r}; expected HH:MM or decimal hours")
         h, m = int(parts[0]), int(parts[1])
         sec = int(parts[2]) if len(parts) == 3 else 0

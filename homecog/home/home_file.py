@@ -8,7 +8,9 @@ duplicate key, where PyYAML would silently keep the last.
 A home file is bounded (docs/design.md, "Hostile input"): at most 1 MiB, read only where it is
 a regular file (:mod:`homecog.text_files`); at most :data:`MAX_DEPTH` levels deep and
 :data:`MAX_NODES` values, aliases counted as what they stand for, so an alias bomb is refused
-before it is expanded, and an alias inside the node it names too.
+before it is expanded, and an alias inside the node it names too. Every number in it lies
+within ±:data:`MAX_NUMBER` and every date is one, checked before a value is made (a 5,000-digit
+integer passed Python's limit on converting text to an integer), and refused with its key path.
 
 >>> "paper" in builtin_homes()
 True
@@ -27,7 +29,7 @@ import yaml
 from yaml.composer import Composer, ComposerError
 from yaml.constructor import SafeConstructor
 from yaml.events import AliasEvent
-from yaml.nodes import Node
+from yaml.nodes import MappingNode, Node, ScalarNode, SequenceNode
 from yaml.resolver import Resolver
 
 from homecog.errors import HomeFileError
@@ -48,6 +50,47 @@ except ImportError:  # pragma: no cover - PyYAML without libyaml
 BUILTIN_PACKAGE = "homecog.home.homes"
 MAX_DEPTH = 32  # levels of nesting; a home file needs 8
 MAX_NODES = 100_000  # values, aliases expanded; the 1,002-device home has 56,162
+MAX_NUMBER = 10**15  # the largest size of a number in a home file (lux, minutes, metres, weights)
+_NUMBER_CHARS = 40  # a longer number is out of range whatever it says: never converted
+_INT, _FLOAT, _DATE = (f"tag:yaml.org,2002:{t}" for t in ("int", "float", "timestamp"))
+
+
+class _BadValueError(Exception):
+    """A scalar of a home file that cannot be a value: ``(key path, what is wrong)``."""
+
+    def __init__(self, path: str, problem: str) -> None:
+        super().__init__(path, problem)
+        self.path, self.problem = path, problem
+
+
+def number_out_of_range(text: str) -> str:
+    """What :class:`HomeFileError` says of a number outside ±:data:`MAX_NUMBER`.
+
+    >>> number_out_of_range("1" * 50)
+    "number 11111111111111111111… (50 characters) is out of range; a home file's numbers lie within ±1e15"
+    """
+    shown_text = text if len(text) <= 24 else f"{text[:20]}… ({len(text):,} characters)"
+    return f"number {shown_text} is out of range; a home file's numbers lie within ±1e15"
+
+
+def number_in_range(value: float, text: str) -> bool:
+    """Whether ``value``, read from ``text``, lies within ±:data:`MAX_NUMBER`; an infinity only
+    where the text says one (``.inf``), never a number past a float's range (``1e400``).
+
+    >>> number_in_range(1e15, "1e15"), number_in_range(float("inf"), ".inf")
+    (True, True)
+    >>> number_in_range(float("inf"), "1e400"), number_in_range(10**16, "10000000000000000")
+    (False, False)
+    """
+    if value != value:  # NaN: the shape checks say what they make of it
+        return True
+    if value in (float("inf"), float("-inf")):
+        return "inf" in text.lower()
+    return abs(value) <= MAX_NUMBER
+
+
+def _step(path: str, key: object) -> str:
+    return f"{path}[{key}]" if isinstance(key, int) else (f"{path}.{key}" if path else str(key))
 
 
 class _BoundedComposer(Composer):
@@ -106,6 +149,41 @@ class _Loader(_BoundedComposer, _Parser, SafeConstructor, Resolver):
                 )
             seen.add(key)
         return super().construct_mapping(node, deep=deep)
+
+    def construct_document(self, node: Node) -> Any:
+        self._check_values(node, "", set())
+        return super().construct_document(node)
+
+    def _check_values(self, node: Node, path: str, seen: set[int]) -> None:
+        """Refuse a number outside ±:data:`MAX_NUMBER` or a date that is none, naming its key
+        path, before any value is made (a node an alias names again is checked once)."""
+        if id(node) in seen:
+            return
+        seen.add(id(node))
+        if isinstance(node, ScalarNode):
+            self._check_scalar(node, path)
+        elif isinstance(node, SequenceNode):
+            for i, item in enumerate(node.value):
+                self._check_values(item, _step(path, i), seen)
+        elif isinstance(node, MappingNode):
+            for key, value in node.value:
+                key_text = str(key.value)[:_NUMBER_CHARS] if isinstance(key, ScalarNode) else "?"
+                self._check_values(key, _step(path, key_text), seen)
+                self._check_values(value, _step(path, key_text), seen)
+
+    def _check_scalar(self, node: ScalarNode, path: str) -> None:
+        text = str(node.value)
+        try:
+            if node.tag in (_INT, _FLOAT):
+                if len(text) > _NUMBER_CHARS:
+                    raise _BadValueError(path, number_out_of_range(text))
+                construct = self.construct_yaml_int if node.tag == _INT else self.construct_yaml_float
+                if not number_in_range(construct(node), text):
+                    raise _BadValueError(path, number_out_of_range(text))
+            elif node.tag == _DATE:
+                self.construct_yaml_timestamp(node)
+        except (ValueError, OverflowError):
+            raise _BadValueError(path, f"{text[:_NUMBER_CHARS]!r} is not a date") from None
 
 
 # YAML 1.2 has no base-60 numbers: keep an unquoted clock time (19:00) a string, not 1140.
@@ -168,6 +246,8 @@ def read_yaml(text: str, source: str) -> Any:
         raise HomeFileError(f"{source}: a NUL character; a home file is text")
     try:
         return yaml.load(text, Loader=_Loader)  # a safe loader: plain data only
+    except _BadValueError as e:
+        raise HomeFileError(f"{source}: {e.path + ': ' if e.path else ''}{e.problem}") from None
     except yaml.YAMLError as e:
         mark = getattr(e, "problem_mark", None) or getattr(e, "context_mark", None)
         where = f"line {mark.line + 1}: " if mark is not None else ""

@@ -32,7 +32,7 @@ from homecog.home.model import Home
 from homecog.home.states import parse_state
 from homecog.home.truth import TruthChoices, truth_with_choices
 from homecog.names import user_name_problem
-from homecog.text_files import check_header_unique, text_lines, timestamp_cell
+from homecog.text_files import check_header_unique, check_zone, text_lines, timestamp_cell
 
 
 @dataclass(frozen=True)
@@ -100,13 +100,16 @@ def _rows(
     header = reader.fieldnames or []
     _check_header(path, header, needed, events=events, corrections=corrections)
     out = []
+    zoned: tuple[bool, int] | None = None  # whether the first timestamp had a zone, its line
     for line, row in enumerate(reader, start=2):
         if None in row or any(row.get(c) is None for c in needed):
             raise EvaluationError(f"{path}: line {line}: expected {len(header)} fields")
         _check_readings(path, line, row, space, home)
-        timestamp = (
-            timestamp_cell(row["timestamp"], path, line, EvaluationError) if events or corrections else None
-        )
+        timestamp = None
+        if events or corrections:  # all with a time zone or all without: others cannot be compared
+            timestamp = timestamp_cell(row["timestamp"], path, line, EvaluationError)
+            zoned = zoned or (timestamp.tzinfo is not None, line)
+            check_zone(path, line, timestamp, zoned, EvaluationError)
         user = (row.get("user") or "").strip() or None  # a blank cell: the user the caller gives
         problem = None if user is None else user_name_problem(user)
         if problem is not None:

@@ -28,6 +28,7 @@ from typing import Any
 
 from homecog.errors import HomeFileError
 from homecog.home.clock import clock_hours
+from homecog.home.home_file import number_in_range, number_out_of_range
 from homecog.home.model import Device, Feature, format_number
 from homecog.home.states import STATE_WORDS
 
@@ -125,7 +126,7 @@ def numbers(value: object, path: str, fail: Fail, n: int, unit: str = "metres") 
     ok = isinstance(value, (list, tuple)) and len(value) == n
     ok = ok and all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in value)  # type: ignore[union-attr]
     if not ok or not all(math.isfinite(v) for v in value):  # type: ignore[union-attr]
-        raise fail(path, f"expected a list of {n} numbers ({unit}), got {value!r}")
+        raise fail(path, f"expected a list of {n} numbers ({unit}), got {quoted(value)}")
     return tuple(float(v) for v in value)  # type: ignore[union-attr]
 
 
@@ -188,20 +189,24 @@ class ShapeChecks:
     def name(self, value: object, path: str, what: str) -> str:
         if not isinstance(value, str) or not _NAME.match(value):
             raise self.fail(
-                path, f"{what} name {value!r} must be letters, digits and _ and not start with a digit"
+                path, f"{what} name {quoted(value)} must be letters, digits and _ and not start with a digit"
             )
         return value
 
     def number(self, value: object, path: str) -> float:
+        """A number, or its text (``.inf``, ``1e3``), within ±:data:`MAX_NUMBER`."""
         if isinstance(value, bool):
-            raise self.fail(path, f"expected a number, got {value!r}")
+            raise self.fail(path, f"expected a number, got {quoted(value)}")
+        text = value.strip() if isinstance(value, str) else repr(value)
         if isinstance(value, str):
             try:
-                value = float(value.strip().replace(".inf", "inf").replace(".Inf", "inf"))
+                value = float(text.replace(".inf", "inf").replace(".Inf", "inf"))
             except ValueError:
-                raise self.fail(path, f"expected a number, got {value!r}") from None
+                raise self.fail(path, f"expected a number, got {quoted(value)}") from None
         if not isinstance(value, (int, float)) or math.isnan(value):
-            raise self.fail(path, f"expected a number, got {value!r}")
+            raise self.fail(path, f"expected a number, got {quoted(value)}")
+        if not number_in_range(value, text):
+            raise self.fail(path, number_out_of_range(text))
         return float(value)
 
     def minutes(self, value: object, path: str) -> float:
@@ -216,7 +221,7 @@ class ShapeChecks:
             try:
                 value = clock_hours(value)
             except ValueError:
-                raise self.fail(path, f'expected hours (7.5 or "07:30"), got {value!r}') from None
+                raise self.fail(path, f'expected hours (7.5 or "07:30"), got {quoted(value)}') from None
         x = self.number(value, path)
         if not 0 <= x <= 24:
             raise self.fail(path, f"hour {format_number(x)} out of range; expected 0 to 24")
@@ -225,5 +230,5 @@ class ShapeChecks:
     def state(self, value: object, path: str) -> bool:
         state = parse_device_state(value)
         if state is None:
-            raise self.fail(path, f"unknown state {value!r}; expected on or off")
+            raise self.fail(path, f"unknown state {quoted(value)}; expected on or off")
         return state

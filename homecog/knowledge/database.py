@@ -17,7 +17,7 @@ from sqlalchemy.exc import ArgumentError, DBAPIError, NoSuchModuleError
 
 from homecog.errors import StoreError
 from homecog.home.model import Home
-from homecog.paths import data_file
+from homecog.paths import create_private_file, data_file, make_private_dirs
 
 CONNECT_TIMEOUT = 10  # seconds to wait for a database server (unless the URL says connect_timeout)
 
@@ -39,7 +39,7 @@ def default_url(home: Home, *, create: bool = False) -> str:
     path = data_file("knowledge", home, ".sqlite")
     if create:
         try:
-            path.parent.mkdir(parents=True, exist_ok=True)
+            make_private_dirs(path.parent)
         except OSError as e:
             raise StoreError(f"{path.parent}: cannot make the data directory: {e.strerror}") from None
     return f"sqlite:///{path}"
@@ -81,6 +81,7 @@ def make_engine(url: str) -> Engine:
                 folder = Path(path).parent
                 if not folder.is_dir():  # made by whoever chose it, never here (nor /nonexist/)
                     raise StoreError(f"database {redact(url)}: no folder {folder}; make it first")
+                create_private_file(Path(path))  # 0600; its -wal and -shm files take its mode
             engine = create_engine(url, connect_args={"timeout": 60})
 
             @event.listens_for(engine, "connect")

@@ -25,6 +25,7 @@ import numpy as np
 from homecog.errors import QTableError
 from homecog.home.groups import Group, device_groups, whole
 from homecog.home.model import Home
+from homecog.learning.members import read_array, read_meta
 from homecog.learning.qtable import MadeFor, QTable, check_made_for
 from homecog.learning.size import exact_states
 from homecog.paths import atomic_write, reading
@@ -114,8 +115,8 @@ class Policy(MadeFor):
     def load(cls, path: str | Path, home: Home) -> Policy:
         """Read a policy (or a joint Q table of the earlier format) made for ``home``."""
         path = Path(path)
-        with reading(path, QTableError, "a homecog Q table"), np.load(path, allow_pickle=False) as data:
-            meta = json.loads(str(data["meta"]))
+        with reading(path, QTableError, "a homecog Q table"), zipfile.ZipFile(path) as z:
+            meta = read_meta(z, str(path))
             if meta.get("format") == 1:
                 return cls.joint_from(home, QTable.load(path, home))
             if meta.get("format") == 2:
@@ -124,19 +125,25 @@ class Policy(MadeFor):
                 raise QTableError(f"{path}: not a homecog Q table (format {meta.get('format')!r})")
             policy = cls._from_meta(meta, home, path)
             for i, (g, t) in enumerate(zip(policy.groups, policy.tables, strict=True)):
-                t.q = data[f"q{i}"]
+                # each array's header checked against the home before it is read (members.py)
+                shape = (exact_states(home, g, joint=policy.joint), len(g.services))
                 if policy.joint:
-                    t.tried = data[f"tried{i}"]
-                rows = exact_states(home, g, joint=policy.joint)
-                if t.q.ndim != 2 or t.q.shape != (rows, len(g.services)):
-                    raise QTableError(f"{path}: not a homecog Q table (group {i} has the wrong shape)")
+                    t.q = read_array(z, f"q{i}", shape, np.float32, str(path), "the joint table")
+                    words = (shape[1] + 31) // 32
+                    marks = "the joint table's tried marks"
+                    t.tried = read_array(z, f"tried{i}", (shape[0], words), np.int64, str(path), marks)
+                else:
+                    t.q = read_array(z, f"q{i}", shape, np.float16, str(path), f"group {i}'s table")
         return policy
 
     @classmethod
     def _from_meta(cls, meta: dict[str, Any], home: Home, path: Path) -> Policy:
         check_made_for(meta["home_name"], meta["home_hash"], home, str(path))
         groups = (whole(home),) if meta["joint"] else device_groups(home)
-        stored = [(tuple(g["devices"]), tuple(g["services"])) for g in meta["groups"]]
+        try:
+            stored = [(tuple(g["devices"]), tuple(g["services"])) for g in meta["groups"]]
+        except (TypeError, KeyError):
+            raise QTableError(f"{path}: not a homecog Q table (its groups are no list)") from None
         if stored != [(g.devices, g.services) for g in groups]:
             raise QTableError(f"{path}: its groups are not this home's groups; train again")
         tables = [

@@ -8,6 +8,7 @@ failed or interrupted save leaves the previous file as it was.
 from __future__ import annotations
 
 import json
+import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Self
@@ -15,7 +16,10 @@ from typing import TYPE_CHECKING, Any, Self
 import numpy as np
 
 from homecog.errors import QTableError
+from homecog.home.groups import whole
 from homecog.home.model import Home
+from homecog.learning.members import read_array, read_meta
+from homecog.learning.size import exact_states
 from homecog.paths import atomic_write, reading
 
 if TYPE_CHECKING:
@@ -97,25 +101,26 @@ class QTable(MadeFor):
         return path
 
     @classmethod
-    def load(cls, path: str | Path, home: Home | None = None) -> QTable:
-        """Read a table; with ``home``, refuse it unless it was made for that home."""
+    def load(cls, path: str | Path, home: Home) -> QTable:
+        """Read a table made for ``home``, refused unless it was made for that home and its arrays
+        are of the home's shape (checked from their headers, before anything is allocated)."""
         path = Path(path)
-        with reading(path, QTableError, "a homecog Q table"), np.load(path, allow_pickle=False) as data:
-            meta = json.loads(str(data["meta"]))
-            q = data["q"]
-            tried = data["tried"]
-        if meta.get("format") != FORMAT or q.ndim != 2 or tried.shape[0] != q.shape[0]:
-            raise QTableError(f"{path}: not a homecog Q table (format {meta.get('format')!r})")
-        table = cls.restore(
-            meta,
-            "episodes",
-            "steps",
-            "greedy_optimal_rate",
-            "config",
-            q=q,
-            tried=tried,
-            rng=np.array([meta["rng"]], dtype=np.int64),
-        )
-        if home is not None:
-            table.check_home(home, source=str(path))
-        return table
+        rows, services = exact_states(home, whole(home), joint=True), len(home.services)
+        with reading(path, QTableError, "a homecog Q table"), zipfile.ZipFile(path) as z:
+            meta = read_meta(z, str(path))
+            if meta.get("format") != FORMAT:
+                raise QTableError(f"{path}: not a homecog Q table (format {meta.get('format')!r})")
+            check_made_for(meta["home_name"], meta["home_hash"], home, str(path))
+            q = read_array(z, "q", (rows, services), np.float32, str(path), "the table")
+            words = (services + 31) // 32
+            tried = read_array(z, "tried", (rows, words), np.int64, str(path), "the table's tried marks")
+            return cls.restore(
+                meta,
+                "episodes",
+                "steps",
+                "greedy_optimal_rate",
+                "config",
+                q=q,
+                tried=tried,
+                rng=np.array([meta["rng"]], dtype=np.int64),
+            )
