@@ -9,6 +9,9 @@ import asyncio
 import contextlib
 import logging
 from collections.abc import Callable
+from typing import Any
+
+from homecog.knowledge.correction import Outcome
 
 log = logging.getLogger("homecog.web")
 
@@ -74,3 +77,15 @@ def tell_all(watchers: list[Callable[[dict[str, str]], object]], context: dict[s
             watcher(context)
         except Exception:
             log.exception("a context watcher failed")
+
+
+def correction_event(outcome: Outcome) -> dict[str, Any]:
+    """A correction as the live event stream tells it."""
+    c = outcome.correction
+    event = {
+        "user": c.user,
+        "want": list(c.want),
+        "added": list(outcome.added),
+        "rejected": list(outcome.rejected),
+    }
+    return {**event, "kind": c.kind, **({"concerns": list(c.concerns)} if c.concerns is not None else {})}

@@ -35,13 +35,13 @@ from homecog.home.household import Household
 from homecog.home.model import Home, format_number
 from homecog.home.states import state_word
 from homecog.knowledge import core
-from homecog.knowledge.correction import Correction, Outcome
+from homecog.knowledge.correction import Correction
 from homecog.knowledge.ihdr import IHDRTree
 from homecog.knowledge.store import Store
 from homecog.planning import Acting
 from homecog.robot.actor import Actor
 from homecog.robot.attribution import Attribution
-from homecog.robot.events import EventBus, tell_all
+from homecog.robot.events import EventBus, correction_event, tell_all
 from homecog.robot.guidance import QUIET_SITUATION, Guidance
 from homecog.robot.holds import Holds, situation
 from homecog.robot.journal import Journal
@@ -172,7 +172,7 @@ class Runtime:
             raise ContextError(f"user {c.user!r}: not one of the household ({self.household.names()})")
         outcome = core.correct(self.store, self.tree, c, self.lock)  # the lock only off the database
         experiences = self.store.experience_count()  # outside the lock: cognition need not wait
-        self.publish("correction", _event(outcome))
+        self.publish("correction", correction_event(outcome))
         return {**outcome.as_dict(), "experiences": experiences}
 
     def _learn(self, c: Correction) -> None:
@@ -182,7 +182,7 @@ class Runtime:
             self.moments.lived(self.space.context(c.point), list(c.want))
         outcome = core.correct(self.store, self.tree, c, self.lock)
         log.info("learned %s for %s: %s", c.kind, c.user, c.says())
-        self.publish("correction", _event(outcome))
+        self.publish("correction", correction_event(outcome))
 
     def _point_now(self, context: Mapping[str, str]) -> Point:
         """A context of the household's stream as a point, with the recent past of its moment."""
@@ -389,15 +389,3 @@ class Runtime:
                 log.exception("a context that does not fit the home")
                 return
         self.bus.send(kind, data)
-
-
-def _event(outcome: Outcome) -> dict[str, Any]:
-    """A correction as the live event stream tells it."""
-    c = outcome.correction
-    event = {
-        "user": c.user,
-        "want": list(c.want),
-        "added": list(outcome.added),
-        "rejected": list(outcome.rejected),
-    }
-    return {**event, "kind": c.kind, **({"concerns": list(c.concerns)} if c.concerns is not None else {})}
