@@ -53,6 +53,7 @@ MAX_NODES = 100_000  # values, aliases expanded; the 1,002-device home has 56,16
 MAX_NUMBER = 10**15  # the largest size of a number in a home file (lux, minutes, metres, weights)
 _NUMBER_CHARS = 40  # a longer number is out of range whatever it says: never converted
 _INT, _FLOAT, _DATE = (f"tag:yaml.org,2002:{t}" for t in ("int", "float", "timestamp"))
+_CHECKED = frozenset((_INT, _FLOAT, _DATE))
 
 
 class _BadValueError(Exception):
@@ -151,39 +152,51 @@ class _Loader(_BoundedComposer, _Parser, SafeConstructor, Resolver):
         return super().construct_mapping(node, deep=deep)
 
     def construct_document(self, node: Node) -> Any:
-        self._check_values(node, "", set())
+        self._check_values(node, [], set())
         return super().construct_document(node)
 
-    def _check_values(self, node: Node, path: str, seen: set[int]) -> None:
+    def _check_values(self, node: Node, keys: list[object], seen: set[int]) -> None:
         """Refuse a number outside ±:data:`MAX_NUMBER` or a date that is none, naming its key
-        path, before any value is made (a node an alias names again is checked once)."""
+        path, before any value is made (a node an alias names again is checked once; the path
+        is written only for a refusal)."""
         if id(node) in seen:
             return
         seen.add(id(node))
         if isinstance(node, ScalarNode):
-            self._check_scalar(node, path)
+            if node.tag in _CHECKED:
+                self._check_scalar(node, keys)
         elif isinstance(node, SequenceNode):
             for i, item in enumerate(node.value):
-                self._check_values(item, _step(path, i), seen)
+                keys.append(i)
+                self._check_values(item, keys, seen)
+                keys.pop()
         elif isinstance(node, MappingNode):
             for key, value in node.value:
-                key_text = str(key.value)[:_NUMBER_CHARS] if isinstance(key, ScalarNode) else "?"
-                self._check_values(key, _step(path, key_text), seen)
-                self._check_values(value, _step(path, key_text), seen)
+                keys.append(str(key.value)[:_NUMBER_CHARS] if isinstance(key, ScalarNode) else "?")
+                self._check_values(key, keys, seen)
+                self._check_values(value, keys, seen)
+                keys.pop()
 
-    def _check_scalar(self, node: ScalarNode, path: str) -> None:
+    def _check_scalar(self, node: ScalarNode, keys: list[object]) -> None:
         text = str(node.value)
+        problem = None
         try:
-            if node.tag in (_INT, _FLOAT):
+            if node.tag != _DATE:
                 if len(text) > _NUMBER_CHARS:
-                    raise _BadValueError(path, number_out_of_range(text))
-                construct = self.construct_yaml_int if node.tag == _INT else self.construct_yaml_float
-                if not number_in_range(construct(node), text):
-                    raise _BadValueError(path, number_out_of_range(text))
-            elif node.tag == _DATE:
+                    problem = number_out_of_range(text)
+                else:
+                    construct = self.construct_yaml_int if node.tag == _INT else self.construct_yaml_float
+                    if not number_in_range(construct(node), text):
+                        problem = number_out_of_range(text)
+            else:
                 self.construct_yaml_timestamp(node)
         except (ValueError, OverflowError):
-            raise _BadValueError(path, f"{text[:_NUMBER_CHARS]!r} is not a date") from None
+            problem = f"{text[:_NUMBER_CHARS]!r} is not a date"
+        if problem is not None:
+            path = ""
+            for key in keys:
+                path = _step(path, key)
+            raise _BadValueError(path, problem)
 
 
 # YAML 1.2 has no base-60 numbers: keep an unquoted clock time (19:00) a string, not 1140.
