@@ -237,6 +237,7 @@ def file_cases(folder: Path) -> list[tuple[str, list[str]]]:
         "services: {S: {category: c, set: {d0: on}}}\ncomfort: {d0: [{want: on}]}\n"
     )
     os.mkfifo(folder / "fifo.yaml")
+    _big_events(folder / "big.csv", 200_000_000)
     home = str(ROOT / "tests" / "homes" / "studio.yaml")
     return [
         ("alias bomb, 9 levels", ["home", "check", str(folder / "bomb.yaml")]),
@@ -248,6 +249,7 @@ def file_cases(folder: Path) -> list[tuple[str, list[str]]]:
         ("/dev/zero as events", ["correct", "--events", "/dev/zero", "--home", home]),
         ("a folder as events", ["correct", "--events", str(folder), "--home", home]),
         ("NUL in an event's user", ["correct", "--events", str(folder / "nul.csv"), "--home", home]),
+        ("200 MB of events, last line bad", ["correct", "--events", str(folder / "big.csv"), "--home", home]),
         ("10,000 devices, joint", ["train", "--joint", "--home", str(folder / "many.yaml")]),
         ("--context ,,,==,", ["cognize", "--context", ",,,==,"]),
         (
@@ -255,6 +257,24 @@ def file_cases(folder: Path) -> list[tuple[str, list[str]]]:
             ["cognize", "--home", home, "--context", CONTEXT, "--db", "sqlite:////nonexist/x.sqlite"],
         ),
     ]
+
+
+def _big_events(path: Path, size: int) -> None:
+    """An event file of the studio of about ``size`` bytes, good but for its last line."""
+    rng = random.Random(0)
+    rows = [
+        f"2024-03-01T{i // 60:02d}:{i % 60:02d}:00,{rng.randrange(24):02d}:{rng.choice(['00', '30'])},"
+        f"{rng.choice([5, 50, 300, 812.5])},{rng.choice(['work', 'relax', 'sleep'])},"
+        + ",".join(rng.choice(["on", "off"]) for _ in range(3))
+        + f",{rng.choice(['LampOn', '', 'RadioOn;BringTea'])},{rng.choice(['', 'ann'])}\n"
+        for i in range(1440)
+    ]
+    block = "".join(rows)
+    with path.open("w") as f:
+        f.write("timestamp,time,light,activity,blind,desk_lamp,radio,services,user\n")
+        for _ in range(size // len(block)):
+            f.write(block)
+        f.write("2024-03-02T00:00:00,10:00,50,dance,off,off,off,,\n")
 
 
 class _Measured(subprocess.Popen):  # type: ignore[type-arg]

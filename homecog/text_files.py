@@ -31,6 +31,7 @@ FOLDER: is a directory, not a home file
 from __future__ import annotations
 
 import codecs
+import itertools
 import os
 import stat
 from collections.abc import Iterator, Sequence
@@ -181,10 +182,16 @@ def _lines(f: object, path: Path, *, limit: int, what: str, error: type[Exceptio
         except UnicodeDecodeError as e:  # pending holds no line ending: they are in the chunk
             at = line + _line_of(chunk, max(e.start, 0)) - 1
             raise error(f"{path}: line {at}: not UTF-8 text") from None
-        *complete, pending = pending.split("\n")
-        for text in complete:
-            yield _line(text + "\n", path, line, what, error)
-            line += 1
+        cut = pending.rfind("\n") + 1
+        block, pending = pending[:cut], pending[cut:]
+        complete = block.split("\n")[:-1]
+        if "\0" in block or (complete and max(map(len, complete)) > LINE_LIMIT):
+            for text in complete:  # a line at a time, so that the lines before it are read first
+                yield _line(text + "\n", path, line, what, error)
+                line += 1
+        else:  # the common case, a chunk of good lines, without a call for each
+            yield from map(str.__add__, complete, itertools.repeat("\n"))
+            line += len(complete)
         if len(pending) > LINE_LIMIT:
             raise error(f"{path}: line {line}: longer than {size_text(LINE_LIMIT)}")
         if not chunk:

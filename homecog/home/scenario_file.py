@@ -21,10 +21,13 @@ error names the file, the line and the column.
 from __future__ import annotations
 
 import csv
-from collections.abc import Sequence
+import itertools
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from datetime import datetime
+from operator import attrgetter
 from pathlib import Path
+from typing import Any
 
 from homecog.errors import ContextError, EvaluationError
 from homecog.home.codec import Point, Space, is_missing, parse_services
@@ -32,7 +35,7 @@ from homecog.home.model import Home
 from homecog.home.states import parse_state
 from homecog.home.truth import TruthChoices, truth_with_choices
 from homecog.names import user_name_problem
-from homecog.text_files import check_header_unique, check_zone, text_lines, timestamp_cell
+from homecog.text_files import LINE_LIMIT, check_header_unique, check_zone, text_lines, timestamp_cell
 
 
 @dataclass(frozen=True)
@@ -71,18 +74,34 @@ def load_scenarios(
 
     ``corrections``: events to learn, which must say the services wanted and may name the
     household member of each row in a ``user`` column.
+
+    The file is read twice: first every row is checked, in batches and in bounded memory
+    (:class:`_Check`), so that a bad row anywhere is refused before a scenario is made; then
+    the scenarios are made.
     """
     space = Space(home)
     what = "an event file" if events or corrections else "a scenario file"
+    stamped = events or corrections
     with text_lines(path, what=what, error=EvaluationError) as lines:
-        reader = csv.DictReader(lines)
+        reader = csv.reader(lines)
         try:
-            out = _rows(path, reader, space, home, truth, events=events, corrections=corrections)
+            header = next(reader, [])
         except csv.Error as e:  # a quoted cell that never ends, or over the field limit
             raise EvaluationError(f"{path}: line {reader.line_num}: not CSV: {e}") from None
+        _check_header(path, header, list(space.names), events=events, corrections=corrections)
+        _Check(path, header, space, home, truth, stamped=stamped).rows(lines, reader.line_num)
+    with text_lines(path, what=what, error=EvaluationError) as lines:
+        dict_reader = csv.DictReader(lines)
+        try:
+            out = _rows(path, dict_reader, space, home, truth, events=events, corrections=corrections)
+        except csv.Error as e:
+            raise EvaluationError(f"{path}: line {dict_reader.line_num}: not CSV: {e}") from None
     if not out:
         raise EvaluationError(f"{path}: no rows after the header")
     return out
+
+
+Zoned = tuple[bool, int] | None  # whether a file's first timestamp had a zone, and its line
 
 
 def _rows(
@@ -96,38 +115,49 @@ def _rows(
     corrections: bool,
 ) -> list[Scenario]:
     """The rows of a scenario or event file, each checked."""
-    needed = list(space.names)
     header = reader.fieldnames or []
-    _check_header(path, header, needed, events=events, corrections=corrections)
+    _check_header(path, header, list(space.names), events=events, corrections=corrections)
     out = []
-    zoned: tuple[bool, int] | None = None  # whether the first timestamp had a zone, its line
+    zoned: Zoned = None
     for line, row in enumerate(reader, start=2):
-        if None in row or any(row.get(c) is None for c in needed):
-            raise EvaluationError(f"{path}: line {line}: expected {len(header)} fields")
-        _check_readings(path, line, row, space, home)
-        timestamp = None
-        if events or corrections:  # all with a time zone or all without: others cannot be compared
-            timestamp = timestamp_cell(row["timestamp"], path, line, EvaluationError)
-            zoned = zoned or (timestamp.tzinfo is not None, line)
-            check_zone(path, line, timestamp, zoned, EvaluationError)
-        user = (row.get("user") or "").strip() or None  # a blank cell: the user the caller gives
-        problem = None if user is None else user_name_problem(user)
-        if problem is not None:
-            raise EvaluationError(f"{path}: line {line}, column user: {problem}")
-        context = {name: row[name].strip() for name in needed}
-        point = space.point(context)
-        truth_set, ambiguous = _wanted(path, line, row, point, home, truth)
-        out.append(
-            Scenario(
-                context=context,
-                point=point,
-                truth=truth_set,
-                choices=ambiguous,
-                user=user,
-                timestamp=timestamp,
-            )
-        )
+        scenario, zoned = _row(path, line, row, len(header), space, home, truth, events or corrections, zoned)
+        out.append(scenario)
     return out
+
+
+def _row(
+    path: Path,
+    line: int,
+    row: dict[str | None, Any],
+    width: int,
+    space: Space,
+    home: Home,
+    truth: Home,
+    stamped: bool,
+    zoned: Zoned,
+) -> tuple[Scenario, Zoned]:
+    """One row of a scenario or event file, checked, as a scenario (``row`` as
+    :class:`csv.DictReader` makes it); the file's zone as it stands after it."""
+    needed = space.names
+    if None in row or any(row.get(c) is None for c in needed):
+        raise EvaluationError(f"{path}: line {line}: expected {width} fields")
+    _check_readings(path, line, row, space, home)  # type: ignore[arg-type]
+    timestamp = None
+    if stamped:  # all with a time zone or all without: others cannot be compared
+        timestamp = timestamp_cell(row["timestamp"], path, line, EvaluationError)
+        zoned = zoned or (timestamp.tzinfo is not None, line)
+        check_zone(path, line, timestamp, zoned, EvaluationError)
+    user = (row.get("user") or "").strip() or None  # a blank cell: the user the caller gives
+    problem = None if user is None else user_name_problem(user)
+    if problem is not None:
+        raise EvaluationError(f"{path}: line {line}, column user: {problem}")
+    context = {name: row[name].strip() for name in needed}
+    point = space.point(context)
+    truth_set, ambiguous = _wanted(path, line, row, point, home, truth)  # type: ignore[arg-type]
+    scenario = Scenario(
+        context=context, point=point, truth=truth_set, choices=ambiguous, user=user, timestamp=timestamp
+    )
+    return scenario, zoned
 
 
 def _check_header(
@@ -179,3 +209,184 @@ def _wanted(
             "(the truth home cannot say what is wanted where a reading is unknown)"
         )
     return truth_of(truth, point)
+
+
+#: rows the first pass checks at once, and distinct cells it remembers per column as good
+_BATCH = 8192
+_REMEMBERED = 50_000
+
+
+class _Check:
+    """The first pass over a file of rows: every row checked as :func:`_row` checks it, without
+    making a scenario. Rows are read in batches of :data:`_BATCH`, each column of a batch as one
+    set of distinct cells, and only a cell not met before is checked (each column remembers up
+    to :data:`_REMEMBERED`); a batch in which anything is amiss (a row of another length, a
+    blank line, a cell that does not pass) is checked again row by row by :func:`_row`, which
+    raises the error the file has always had. Memory is a batch's, whatever the file's size."""
+
+    def __init__(
+        self, path: Path, header: list[str], space: Space, home: Home, truth: Home, *, stamped: bool
+    ):
+        self.path, self.header, self.space, self.home, self.truth = path, header, space, home, truth
+        self.stamped = stamped
+        self.zoned: Zoned = None
+        self.has_services = "services" in header
+        # per column of the home: its position in the row, and its cells known good
+        self.columns: list[tuple[int, int, set[str]]] = [
+            (header.index(name), j, set()) for j, name in enumerate(space.names)
+        ]
+        self.services: set[str] = set()
+        self.users: set[str] = set()
+
+    def rows(self, lines: Iterator[str], read: int) -> None:
+        """Check every row of the lines after the header (``read``: the lines the header took).
+
+        Lines without a quote or a carriage return, the common case, are split at commas as
+        :mod:`csv` would split them, a batch at once; from a batch with either on, :mod:`csv`
+        reads the rest."""
+        line = 2  # the next row's number, as csv.DictReader counts rows
+        plain = csv.field_size_limit() >= LINE_LIMIT  # no unquoted cell can be over the limit
+        while True:
+            batch: list[str] = []
+            failure: EvaluationError | None = None
+            try:
+                batch.extend(itertools.islice(lines, _BATCH))  # keeps the lines before a failure
+            except EvaluationError as e:  # a line too long, not UTF-8, a NUL byte
+                failure = e
+            text = "".join(batch)
+            if not plain or '"' in text or "\r" in text:
+                rest = itertools.chain(batch, _raise(failure) if failure else lines)
+                self._csv_rows(csv.reader(rest), line, read)
+                return
+            if set(map(str.count, batch, itertools.repeat(","))) == {len(self.header) - 1}:
+                cells = text.replace("\n", ",").split(",")
+                width = len(self.header)
+                del cells[len(batch) * width :]  # the empty cell after the last line ending
+                good = self._batch_good([cells[at::width] for at in range(width)], line)
+            else:  # a blank line (no row) or a row of another length
+                good = False
+            if not good:
+                self._one_by_one(list(csv.reader(batch)), line)
+            line += len(batch) - batch.count("\n")
+            read += len(batch)
+            if failure is not None:
+                raise failure from None
+            if len(batch) < _BATCH:
+                return
+
+    def _csv_rows(self, reader: Iterator[list[str]], line: int, read: int) -> None:
+        """Check the rows :mod:`csv` reads (``line``: the first's number; ``read``: the lines
+        read before)."""
+        while True:
+            batch: list[list[str]] = []
+            failure: Exception | None = None
+            try:
+                batch.extend(itertools.islice(reader, _BATCH))  # keeps the rows before a failure
+            except csv.Error as e:  # after the rows before it are checked, as a row at a time did
+                at = read + reader.line_num  # type: ignore[attr-defined]
+                failure = EvaluationError(f"{self.path}: line {at}: not CSV: {e}")
+            except EvaluationError as e:
+                failure = e
+            width = len(self.header)
+            good = bool(batch) and set(map(len, batch)) == {width}
+            if good:
+                good = self._batch_good(list(zip(*batch, strict=False)), line)
+            if batch and not good:
+                self._one_by_one(batch, line)
+            line += len(batch) - batch.count([])
+            if failure is not None:
+                raise failure from None
+            if len(batch) < _BATCH:
+                return
+
+    def _batch_good(self, columns: list[Sequence[str]], line: int) -> bool:
+        """Whether every row of a batch passes, checked column by column (``line``: the
+        number of its first row)."""
+        for at, j, known in self.columns:
+            cells = set(columns[at])
+            for cell in cells.difference(known):
+                missing = self._reading(j, cell)
+                if missing is None or (missing and not self.has_services):
+                    return False
+                if len(known) < _REMEMBERED:
+                    known.add(cell)
+        if self.has_services and not _known(
+            set(columns[self.header.index("services")]), self.services, self._services
+        ):
+            return False
+        if "user" in self.header and not _known(set(columns[self.header.index("user")]), self.users, _user):
+            return False
+        return not self.stamped or self._timestamps(columns[self.header.index("timestamp")], line)
+
+    def _reading(self, j: int, cell: str) -> bool | None:
+        """Whether a good cell of column ``j`` is a missing reading; None for a bad one."""
+        value = cell.strip()
+        try:
+            if j >= self.space.n_features:
+                parse_state(value, self.space.names[j])
+                return False
+            feature = self.home.features[j]
+            if is_missing(feature, value):
+                return True
+            feature.discretize(value)
+        except Exception:  # the row is checked again, and says what
+            return None
+        return False
+
+    def _services(self, cell: str) -> bool:
+        try:
+            parse_services(cell.replace(";", ","), self.truth)
+        except Exception:  # the row is checked again, and says what
+            return False
+        return True
+
+    def _timestamps(self, cells: Sequence[str], line: int) -> bool:
+        """Whether every timestamp of a batch is an ISO 8601 time, all with a zone or all without
+        as the file's first (``line``: the batch's first row's)."""
+        try:
+            times = list(map(datetime.fromisoformat, map(str.strip, cells)))
+        except Exception:  # the row is checked again, and says what
+            return False
+        zoned = self.zoned or (times[0].tzinfo is not None, line)
+        if {zone is not None for zone in set(map(attrgetter("tzinfo"), times))} != {zoned[0]}:
+            return False
+        self.zoned = zoned
+        return True
+
+    def _one_by_one(self, batch: list[list[str]], line: int) -> None:
+        """A batch checked row by row as the second pass reads it: the first bad row raises."""
+        names = self.header
+        width = len(names)
+        for row in batch:
+            if not row:  # a blank line is no row
+                continue
+            cells: dict[str | None, Any] = dict(zip(names, row, strict=False))
+            if len(row) > width:
+                cells[None] = row[width:]
+            for name in names[len(row) :]:
+                cells[name] = None
+            _, self.zoned = _row(
+                self.path, line, cells, width, self.space, self.home, self.truth, self.stamped, self.zoned
+            )
+            line += 1
+
+
+def _known(cells: set[str], known: set[str], good: Callable[[str], bool]) -> bool:
+    """Whether every cell is good, those not ``known`` checked (and then remembered)."""
+    for cell in cells.difference(known):
+        if not good(cell):
+            return False
+        if len(known) < _REMEMBERED:
+            known.add(cell)
+    return True
+
+
+def _user(cell: str) -> bool:
+    name = cell.strip()
+    return not name or user_name_problem(name) is None
+
+
+def _raise(failure: Exception) -> Iterator[str]:
+    """Lines that end where reading them failed, as they did the first time."""
+    raise failure
+    yield  # a generator
