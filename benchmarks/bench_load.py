@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import random
 import subprocess
 import sys
@@ -74,12 +75,12 @@ def event_file(path: Path, rows: int, seed: int = 0) -> Path:
 
 def run(args: list[str], env_dir: Path) -> tuple[float, float, str]:
     """Seconds and peak MB of a homecog command, and its output."""
-    import os
-
     env = {**os.environ, "HOMECOG_DATA": str(env_dir)}
-    code = "import resource, sys\nfrom homecog.cli.main import main\ntry:\n    code = main(sys.argv[1:])\n"
-    code += "finally:\n    print('PEAK', resource.getrusage(resource.RUSAGE_SELF).ru_maxrss, file=sys.stderr)\n"
-    code += "sys.exit(code)\n"
+    code = (
+        "import resource, sys\nfrom homecog.cli.main import main\ntry:\n    code = main(sys.argv[1:])\n"
+        "finally:\n    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss\n"
+        "    print('PEAK', peak, file=sys.stderr)\nsys.exit(code)\n"
+    )
     start = time.perf_counter()
     done = subprocess.run(
         [sys.executable, "-c", code, *args], capture_output=True, text=True, env=env, check=False
