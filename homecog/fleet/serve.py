@@ -2,7 +2,7 @@
 
 ``GET /api/homes`` lists the homes; under ``/api/homes/{home}/`` each home answers the
 one-home API of ``homecog up`` — ``home``, ``cognize``, ``corrections``, ``plan``,
-``history`` and ``openapi.json`` — with the same routes, models, fast path and contract
+``history`` and ``openapi.json`` — with the same routes, models and contract
 (:func:`homecog.web.main.create_app` with ``fleet``), the path rewritten to theirs. The
 schemas (:mod:`homecog.fleet.schema`: ``/api/openapi.json`` for the list, each home's its
 own) need no token, as ``homecog up``'s; everything else under ``/api`` does when the server
