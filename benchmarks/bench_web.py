@@ -92,8 +92,7 @@ def contexts(home: str, n: int, seed: int = 0) -> list[dict[str, str | float]]:
     """``n`` random valid contexts of the home, as a client would send them (numbers as numbers)."""
     from homecog.evaluation.scenarios import random_scenarios
     from homecog.home import load_home
-    from homecog.home.codec import Space
-    from homecog.web.models import json_context
+    from homecog.home.codec import Space, json_context
 
     h = load_home(home)
     space = Space(h)

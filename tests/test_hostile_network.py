@@ -139,7 +139,7 @@ def test_a_token_is_printable_ascii_and_checked_alike_everywhere(runtime):
     body = {"context": runtime.json_context(), "user": "kim"}
     for given in (TOKEN.encode() + "é".encode(), "é".encode() + TOKEN.encode()[1:], TOKEN.encode("utf-16")):
         headers = {"Authorization": b"Bearer " + given}
-        assert client.post("/api/cognize", json=body, headers=headers).status_code == 401  # the fast path
+        assert client.post("/api/cognize", json=body, headers=headers).status_code == 401  # cognition
         assert client.get("/api/context", headers=headers).status_code == 401
         assert client.post("/api/session", headers=headers).status_code == 401
     assert (

@@ -86,7 +86,7 @@ def test_the_same_answers_and_errors_as_the_one_home_api(fleet_url, fleet_db, tm
     ctx = context_of(home)
     requests = [
         ("GET", "home", None),
-        ("POST", "cognize", {"context": ctx, "user": "kim"}),  # the fast path
+        ("POST", "cognize", {"context": ctx, "user": "kim"}),  # the route's own answer
         ("POST", "cognize", {"context": {**ctx, "behavior": "dance"}}),
         ("POST", "cognize", {"context": {**ctx, "time": 25}}),
         ("POST", "cognize", b"{not json"),

@@ -135,7 +135,7 @@ def test_off_loopback_homecog_up_makes_a_token_that_every_endpoint_needs(studio,
         status, answer = send(f"{base}/api/cognize", {"context": WORK})
         assert status == 401 and answer["detail"].startswith("this server needs its token")
         status, answer = send(f"{base}/api/cognize", {"context": WORK}, token=token)
-        assert status == 200 and "LampOn" in answer["services"]  # the fast path, with the token
+        assert status == 200 and "LampOn" in answer["services"]  # the route's own answer, with the token
 
 
 def test_a_bad_token_from_the_environment_is_one_line(monkeypatch, capsys):

@@ -7,7 +7,7 @@ import dataclasses
 import os
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Annotated, Any
+from typing import Annotated, Any, cast
 
 import typer
 
@@ -97,9 +97,7 @@ def up(
     import gc
 
     from homecog.knowledge.database import redact
-    from homecog.knowledge.pipeline import open_tree
-    from homecog.knowledge.store import Store
-    from homecog.robot.runtime import Runtime
+    from homecog.robot.assemble import Wiring, assemble
     from homecog.web.main import create_app
     from homecog.web.serving import run
 
@@ -119,28 +117,20 @@ def up(
     say = stdout.print
     with contextlib.ExitStack() as stack:
         early = outside is not None and outside.source.early
+        # made once the tree is (a simulated home's clock starts then), or started at once
+        made: Any = functools.partial(_source, outside, speed=speed, truth=truth, ha_token=ha_token)
         if early:  # a wrong URL, token or entity fails before any training
-            source = _start(outside, outside.source.make(h, outside.url, ha_token), h, stack)
-        store = Store.open(db, h)
-        stack.callback(store.close)
-        tree = open_tree(h, store, progress=lambda m: say(m, style="dim"))
-        if outside is None:
-            source = _simulated(h, speed, truth)
-        elif not early:
-            source = outside.source.make(h, outside.url, ha_token)
-        runtime = Runtime(
-            home=h, store=store, tree=tree, source=source, household=people, robot=robot, fresh=FRESH
-        )
+            made = _start(outside, outside.source.make(h, outside.url, ha_token), h, stack)
+        wiring = Wiring(h, db=db, fresh=FRESH, household=people, robot=robot, truth=truth)
+        runtime = assemble(wiring, source=made, progress=lambda m: say(m, style="dim")).runtime
+        stack.callback(runtime.store.close)
+        store, source = runtime.store, cast(Any, runtime.source)
         if runtime.actor.body is not None:
             say(
                 f"the robot's body: {runtime.actor.body.name} ({runtime.actor.body.planner} paths)",
                 style="dim",
             )
         if truth is not None:
-            from homecog.evaluation.closed_loop import SimulatedHousehold
-
-            living = SimulatedHousehold(truth, source, undo_window=people.undo_window)
-            runtime.after_tick.append(living.step)
             say(f"a household of {truth.name}'s wishes lives in the simulated home")
         if outside is not None:  # once the runtime exists: a retained state comes at once
             source.on_change = functools.partial(runtime.publish, "context")
@@ -289,6 +279,16 @@ def _simulated(home: Home, speed: float, truth: Home | None) -> Any:
     return (
         SimulatedHome(home, speed=speed, routine_switches=truth is None) if speed > 0 else ManualSource(home)
     )
+
+
+def _source(
+    outside: Outside | None, home: Home, *, speed: float, truth: Home | None, ha_token: str | None
+) -> Any:
+    """The context source made once the tree is: the simulated home (or the manual source), or
+    an outside source started only once the runtime exists (:attr:`OutsideSource.early`)."""
+    if outside is None:
+        return _simulated(home, speed, truth)
+    return outside.source.make(home, outside.url, ha_token)
 
 
 def _start(outside: Outside, source: Any, home: Home, stack: contextlib.ExitStack) -> Any:

@@ -159,16 +159,16 @@ def closed_loop(
     """The robot (learning in ``tree``, logging to ``store``) and a household of ``truth``'s
     wishes live ``days`` days in ``home``; per day what each did (:class:`Day`), and the
     robot's own view of it at the end."""
-    from homecog.robot.runtime import Runtime
+    from homecog.robot.assemble import Wiring, assemble
 
-    config = household or home.household
     source = SimulatedHome(home, start=start, seed=seed, routine_switches=False)  # ContextError: a bad start
-    runtime = Runtime(home=home, store=store, tree=tree, source=source, household=config)
-    people = SimulatedHousehold(truth, source, undo_window=config.undo_window)
+    wiring = Wiring(home, household=household or home.household, truth=truth)
+    robot = assemble(wiring, store=store, tree=tree, source=source)
+    runtime, people = robot.runtime, robot.living
+    assert people is not None  # the wiring's truth lives in the home
     out: list[Day] = []
     began = time.perf_counter()
     ticks = round(86400 / STEP)
-    runtime.after_tick.append(people.step)
     for day in range(1, days + 1):
         people.today = Day(day)
         for _ in range(ticks):

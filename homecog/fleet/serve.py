@@ -2,7 +2,7 @@
 
 ``GET /api/homes`` lists the homes; under ``/api/homes/{home}/`` each home answers the
 one-home API of ``homecog up`` — ``home``, ``cognize``, ``corrections``, ``plan``,
-``history`` and ``openapi.json`` — with the same routes, models, fast path and contract
+``history`` and ``openapi.json`` — with the same routes, models and contract
 (:func:`homecog.web.main.create_app` with ``fleet``), the path rewritten to theirs. The
 schemas (:mod:`homecog.fleet.schema`: ``/api/openapi.json`` for the list, each home's its
 own) need no token, as ``homecog up``'s; everything else under ``/api`` does when the server
@@ -39,7 +39,6 @@ from starlette.responses import Response
 from starlette.routing import Mount, Route, get_route_path
 from starlette.types import Receive, Scope, Send
 
-from homecog.context.manual import ManualSource
 from homecog.errors import FleetError, HomecogError, StoreError, UnknownHomeError
 from homecog.fleet.schema import FLEET_SCHEMA, HOME_SCHEMA, PREFIX, fleet_schema, prefixed
 from homecog.home.validator import load_home_text
@@ -49,6 +48,7 @@ from homecog.knowledge.schema import HomeRow
 from homecog.knowledge.store import Store
 from homecog.knowledge.store_log import stored_homes
 from homecog.names import home_name_problem, shown
+from homecog.robot.assemble import Wiring, assemble
 from homecog.robot.runtime import Runtime
 from homecog.web.deps import MISSING, authorized
 from homecog.web.main import api, create_app
@@ -155,8 +155,7 @@ class Fleet:
         home = load_home_text(row.source, f"{name} (stored)")
         store = Store.open(self.url, home, engine=self.engine, replace=True)
         version = store.home_version()  # before the tree: a write in between is seen next time
-        tree = store.load_tree()
-        runtime = Runtime(home=home, store=store, tree=tree, source=ManualSource(home))
+        runtime = assemble(Wiring(home, build=False), store=store).runtime  # context by hand
         app = create_app(runtime, self.settings, fleet=True)
         return Entry(name=name, store=store, runtime=runtime, app=app, version=version)
 

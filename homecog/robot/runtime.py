@@ -60,7 +60,7 @@ class Runtime:
     change the tree (a correction not while its transaction writes and commits): the tree is not
     thread-safe, FastAPI runs plain route functions (corrections) in a thread pool, a source
     tells its changes on its own thread, and cognition runs on the event loop unless ``lock`` is
-    held (see ``CognizeFastPath``). ``household``: the home's own settings unless given."""
+    held (:mod:`homecog.web.routes.cognize`). ``household``: the home's own settings unless given."""
 
     home: Home
     store: Store

@@ -35,9 +35,9 @@ from starlette.types import ASGIApp
 
 from homecog.robot.runtime import Runtime
 from homecog.web import errors
+from homecog.web.body_limit import BodyLimit
 from homecog.web.cross_site import CrossSiteGuard
 from homecog.web.deps import require_token, require_token_or_query
-from homecog.web.fastpath import BodyLimit, CognizeFastPath
 from homecog.web.models import HomeModels
 from homecog.web.planner import PLANNER
 from homecog.web.routes import (
@@ -64,7 +64,7 @@ def create_app(runtime: Runtime, settings: Settings | None = None, *, fleet: boo
     """The ASGI application serving ``runtime``.
 
     It is the FastAPI application (routes, OpenAPI; :func:`api`) behind two plain ASGI layers:
-    the body limit, then the fast path of ``POST /api/cognize``. With
+    the cross-site guard, then the body limit. With
     ``settings.live``, the server's clock moves the home that many simulated seconds per real
     second, and the robot acts on what it proposes. ``fleet``: one home of ``homecog serve``
     (:mod:`homecog.fleet.serve`): only the routes whose state the database holds (the home,
@@ -89,8 +89,6 @@ def create_app(runtime: Runtime, settings: Settings | None = None, *, fleet: boo
     )
     app.state.runtime, app.state.settings, app.state.models = runtime, settings, models
     errors.install(app, runtime.home)
-    if not fleet:
-        app.include_router(page.router)  # first: after cognition, the most asked for
     # what the fleet's own layer may answer on every operation of a home (homecog.fleet.serve):
     # the home gone from the database, the database unusable, the home's stored file unusable
     shared = errors.responses(*FLEET_ERRORS) if fleet else {}
@@ -100,14 +98,16 @@ def create_app(runtime: Runtime, settings: Settings | None = None, *, fleet: boo
             "dependencies": [Security(require_token)],
             "responses": {**shared, **errors.responses(401)},
         }
+    cognize.add(app, models, **guarded)  # first: the most asked for is the first route matched
+    if not fleet:
+        app.include_router(page.router)  # after cognition, the most asked for
     app.include_router(home.router, **guarded)
-    makers = (cognize.router, corrections.router, plan.router)
+    makers = (corrections.router, plan.router)
     for make in makers if fleet else (context.router, *makers):
         app.include_router(make(models), **guarded)
     app.include_router(history.router, **guarded)
     if fleet:
-        fast = CognizeFastPath(app, runtime, models.cognize_in, settings.token)
-        return CrossSiteGuard(BodyLimit(fast, limit=settings.max_body))
+        return CrossSiteGuard(BodyLimit(app, limit=settings.max_body))
     app.include_router(source.router, **guarded)
     app.include_router(actions.router, **guarded)
     app.include_router(session.router, **guarded)
@@ -117,16 +117,14 @@ def create_app(runtime: Runtime, settings: Settings | None = None, *, fleet: boo
             "responses": errors.responses(401, stream=True),
         }
     app.include_router(events.router, **guarded)
-    # in front of FastAPI's own middleware stack, whose error middleware alone wraps every send
-    fast = CognizeFastPath(app, runtime, models.cognize_in, settings.token)
-    return CrossSiteGuard(BodyLimit(fast, limit=settings.max_body))
+    return CrossSiteGuard(BodyLimit(app, limit=settings.max_body))
 
 
 def api(app: ASGIApp) -> FastAPI:
     """The FastAPI application of an app :func:`create_app` made (its routes and OpenAPI),
     behind the plain ASGI layers in front of it."""
     while not isinstance(app, FastAPI):
-        app = app.app  # type: ignore[attr-defined]  # BodyLimit, CognizeFastPath
+        app = app.app  # type: ignore[attr-defined]  # CrossSiteGuard, BodyLimit
     return app
 
 
