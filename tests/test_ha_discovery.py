@@ -218,6 +218,8 @@ def test_the_robots_services_are_its_state_there(ha: Instance, robot: Robot) -> 
     wait(lambda: available(ha, sensor), "the services sensor in Home Assistant")
     took = []
     for n in range(3):  # relaxing with the radio off: tea and the radio; once it is on, tea
+        # two hours apart: the robot switches a device at most twice an hour
+        robot.source.clock = lambda k=n: time.time() + 7200 * k  # type: ignore[method-assign]
         since, decisions = ha.changes.count(), len(robot.decided)
         robot.source.set_context({"activity": "relax", "light": str(300 + n), "radio": "off"})
         runtime.act_now("default")  # it switches the radio on, then decides anew
@@ -260,7 +262,9 @@ def test_undo_pressed_in_home_assistant_undoes_the_last_action_and_is_learned(
     wait(lambda: available(ha, button), "the undo button in Home Assistant")
     took = []
     for n in range(1, PRESSES + 1):
-        # a situation other than the last undo's, where the robot switches the radio on
+        # a situation other than the last undo's, where the robot switches the radio on, two
+        # hours after the last (the robot switches a device at most twice an hour)
+        robot.source.clock = lambda k=n: time.time() + 7200 * k  # type: ignore[method-assign]
         robot.source.set_context({"activity": ["relax", "work"][n % 2]})
         acted = runtime.act(robot.source.snapshot(), ["RadioOn"])
         assert acted is not None and robot.source.snapshot()["radio"] == "on"
