@@ -19,6 +19,11 @@ hostile clients and beside ten ordinary ones asking for cognition. The hostile c
   (carried out, or 429 while the planner is busy);
 - one that sends JSON nested 1,000 deep (422).
 
+Then a household's heavy use and bodies made to cost, ten clients of each kind at the paced
+rate in turn, then the three kinds mixed: the history's biggest page (1,000 corrections),
+corrections of fifty users (each stored and learned), and 64 KiB of brackets sent as a
+correction (422).
+
 Then the command line against hostile files: each run of ``homecog`` timed, with its peak memory.
 
     .venv/bin/python benchmarks/bench_hostile.py [--seconds 15] [--db URL]
@@ -56,6 +61,10 @@ PIN = (
 CONTEXT = "time=10:00,light=50,activity=work,blind=off,desk_lamp=off,radio=off"
 BAD_NAMES = ("HOME0", "Home0", "home0%20", "%00", "home0%2e", "home0%09")
 HOSTILE = (("names", 3), ("slow", 3), ("plans", 3), ("deep", 1))
+#: the clients of a household's heavy use and of bodies made to cost: ten of each kind in turn,
+#: then all of them mixed
+HEAVY = ("history", "corrects", "bigdeep")
+DEEP = {"deep": ("[" * 1000 + "]" * 1000).encode(), "bigdeep": ("[" * 32768 + "]" * 32768).encode()}
 
 
 # -- the clients (each run as `bench_hostile.py --client KIND PORT SECONDS`) ---------------------
@@ -80,6 +89,34 @@ def _ask(
     return answer.status, time.perf_counter() - start
 
 
+def _request(
+    kind: str, rng: random.Random, devices: list[str], services: list[str]
+) -> tuple[str, str, bytes | None]:
+    """A client's next request of its kind: method, path and body."""
+    if kind in ("legit", "ordinary"):
+        method, path, body = "POST", "/api/homes/home0/cognize", {"context": _context(rng, devices)}
+    elif kind == "names":
+        name, rest = rng.choice(BAD_NAMES), rng.choice(["openapi.json", "cognize"])
+        method, path, body = ("GET", f"/api/homes/{name}/{rest}", None)
+        if rest == "cognize":
+            method, body = "POST", {"context": _context(rng, devices)}
+    elif kind == "history":
+        method, path, body = "GET", "/api/homes/home0/history?limit=1000", None
+    elif kind == "corrects":
+        want = rng.sample(services, rng.randint(0, 2))
+        body = {"context": _context(rng, devices), "want": want, "user": f"u{rng.randrange(50)}"}
+        method, path = "POST", "/api/homes/home0/corrections"
+    elif kind == "plans":
+        n = rng.choice([500, 32])
+        method, path, body = "POST", "/api/homes/home0/plan", {"services": (services * 125)[:n]}
+    elif kind == "bigdeep":  # 64 KiB of brackets, to the corrections
+        method, path, body = "POST", "/api/homes/home0/corrections", None
+    else:  # deep
+        method, path, body = "POST", "/api/homes/home0/cognize", None
+    data = DEEP.get(kind) or (json.dumps(body).encode() if body else None)
+    return method, path, data
+
+
 def client(kind: str, port: int, seconds: float, rate: float) -> dict[str, object]:
     """Run one client for ``seconds``, ``rate`` requests a second at most (0: as fast as it
     can): its answers' statuses and latencies."""
@@ -94,25 +131,7 @@ def client(kind: str, port: int, seconds: float, rate: float) -> dict[str, objec
         if kind == "slow":
             status, took = _half_sent(port)
         else:
-            if kind in ("legit", "ordinary"):
-                method, path, body = "POST", "/api/homes/home0/cognize", {"context": _context(rng, devices)}
-            elif kind == "names":
-                name, rest = rng.choice(BAD_NAMES), rng.choice(["openapi.json", "cognize"])
-                method, path, body = ("GET", f"/api/homes/{name}/{rest}", None)
-                if rest == "cognize":
-                    method, body = "POST", {"context": _context(rng, devices)}
-            elif kind == "plans":
-                n = rng.choice([500, 32])
-                method, path, body = "POST", "/api/homes/home0/plan", {"services": (services * 125)[:n]}
-            else:  # deep
-                method, path, body = "POST", "/api/homes/home0/cognize", None
-            data = (
-                ("[" * 1000 + "]" * 1000).encode()
-                if kind == "deep"
-                else json.dumps(body).encode()
-                if body
-                else None
-            )
+            method, path, data = _request(kind, rng, devices, services)
             try:
                 status, took = _ask(conn, method, path, data)
             except (OSError, http.client.HTTPException):
@@ -326,6 +345,8 @@ def main() -> None:
             "paced": [legit, *hostile],
             "ordinary flood": [legit, *[("ordinary", 0.0)] * 10],
             "hostile flood": [legit, *[(k, 0.0) for k, _ in hostile]],
+            **{f"{kind} ×10": [legit, *[(kind, args.rate)] * 10] for kind in HEAVY},
+            "heavy, mixed": [legit, *[(kind, args.rate) for kind in HEAVY for _ in range(4)][:10]],
         }
         try:
             results = {"alone": run_clients([legit], port, args.seconds)}
@@ -379,6 +400,14 @@ def _server_table(
         f"beside ten hostile clients, {p95['ordinary flood']:.1f} ms beside ten ordinary ones. 5xx: {five}; "
         f"slowest hostile answer {worst:.2f} s (a half-sent request: closed at its 5 s deadline); "
         f"server peak memory {memory:.0f} MB (with its planner)"
+    )
+    heavy = [phase for phase in p95 if phase.endswith("×10") or phase == "heavy, mixed"]
+    console.print(
+        "cognition p95 beside ten clients of "
+        + "; ".join(
+            f"{phase.removesuffix(' ×10')}: {p95[phase]:.1f} ms ({p95[phase] / p95['alone']:.2f} ×)"
+            for phase in heavy
+        )
     )
 
 

@@ -302,3 +302,44 @@ def test_another_process_s_corrections_are_learned_on_top_not_from_the_start(sto
     assert [mine.predict_one(p, "kim") for p in points] == [fresh.predict_one(p, "kim") for p in points]
     here.close()
     there.close()
+
+
+def test_corrections_and_cognitions_looking_at_the_database_never_deadlock(stored, tmp_path):
+    """SQLite locks its readers too: a cognition that looks at the database (freshness) while a
+    correction holds the database and waits for the tree must not hold the tree meanwhile (the
+    bench's mixed clients on homecog serve once stopped it for good); and what another server
+    corrected meanwhile is learned on top."""
+    import threading
+
+    home, _ = stored
+    store = Store.open(_copy(stored, tmp_path), home)
+    source = ManualSource(home)
+    source.set_context({k: str(v) for k, v in WORK.items()})
+    runtime = Runtime(home=home, store=store, tree=store.load_tree(), source=source, fresh=0.0)
+    other = Store.open(store.url, home)  # a second server's corrections, for refresh to read
+    theirs = other.load_tree()
+    lights = [str(x) for x in range(0, 400, 20)]
+
+    def correct() -> None:
+        for i, light in enumerate(lights):
+            point = runtime.space.point({**{k: str(v) for k, v in WORK.items()}, "light": light})
+            runtime.correct(
+                Correction.change("kim", point, add=["RadioOff"] if i % 2 else [], reject=["BringTea"])
+            )
+            core.correct(other, theirs, Correction.change("ann", point, add=["LampOn"]))
+
+    def cognize() -> None:
+        for light in lights * 3:
+            runtime.cognize({**WORK, "light": int(light)}, "ann")
+
+    workers = [threading.Thread(target=correct), threading.Thread(target=cognize)]
+    for w in workers:
+        w.start()
+    for w in workers:
+        w.join(20)
+    assert not any(w.is_alive() for w in workers), "deadlocked"
+    runtime.cognize(WORK, "ann")  # the other's last corrections too
+    assert runtime.tree.n_clusters("kim") == len(lights)
+    assert runtime.tree.n_clusters("ann") == len(lights)  # the other's, learned on top
+    other.close()
+    store.close()

@@ -189,8 +189,9 @@ class Fleet:
         """Bring a cached home up to the database (the users' layers another server corrected,
         or the whole tree after another build)."""
         runtime = entry.runtime
+        tree = core.refresh(entry.store, runtime.tree, runtime.lock)  # the lock only off the database
         with runtime.lock:
-            runtime.tree = core.refresh(entry.store, runtime.tree)
+            runtime.tree = tree
             entry.version = version
 
     def forget(self, name: str) -> None:

@@ -118,14 +118,22 @@ def reload_users(store: Store, tree: IHDRTree, users: Iterable[str]) -> None:
         store.holds(user, version)
 
 
-def refresh(store: Store, tree: IHDRTree) -> IHDRTree:
-    """``tree`` brought up to the database: the users another process corrected since it was
-    read, or the whole tree loaded again after another build."""
-    stale = store.stale_users({user: tree.n_clusters(user) for user in tree.users})
+def refresh(store: Store, tree: IHDRTree, lock: AbstractContextManager[Any] = NO_LOCK) -> IHDRTree:
+    """``tree`` brought up to the database: the corrections another process made since it was
+    read learned on top, or the whole tree loaded again after another build (the caller puts
+    the tree returned in its place). ``lock`` as for :func:`correct`: held while the tree is
+    read or changed, never while the database is (a database that locks its readers, as SQLite
+    does here, would otherwise wait on a correction that waits on the lock)."""
+    stale = store.stale_users()
     if stale is None:
         return store.load_tree()
-    for user, (version, examples) in stale.items():
-        _take(store, tree, user, version, examples)
+    for user in stale:
+        with store.user_lock(user):
+            with lock:
+                have = tree.n_clusters(user)
+            version, more = store.user_after(user, have)
+            with lock:
+                _take(store, tree, user, version, more)
     return tree
 
 

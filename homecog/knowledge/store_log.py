@@ -53,11 +53,9 @@ class StoreLog:
             ).first()
             return None if row is None else (row.version, row.build)
 
-    def stale_users(self, have: dict[str, int]) -> dict[str, tuple[int, list[Example]]] | None:
+    def stale_users(self) -> list[str] | None:
         """The users whose corrections other processes changed since this store's tree read
-        them: their version and their corrections committed after the first ``have[user]``
-        (those the tree holds); ``None`` after another build (the whole tree is then to be
-        loaded again)."""
+        them; ``None`` after another build (the whole tree is then to be loaded again)."""
         with self._tx() as conn:
             build = conn.execute(select(HomeRow.build).where(HomeRow.name == self.home.name)).scalar()
             if build != self._build:
@@ -65,11 +63,15 @@ class StoreLog:
             rows = conn.execute(
                 select(UserRow.name, UserRow.version).where(UserRow.home == self.home.name)
             ).all()
-            return {
-                name: (version, self._examples(conn, name, have.get(name, 0)))  # type: ignore[attr-defined]
-                for name, version in rows
-                if version != self._versions.get(name, 0)
-            }
+            return [name for name, version in rows if version != self._versions.get(name, 0)]
+
+    def user_after(self, user: str, have: int) -> tuple[int, list[Example]]:
+        """A user's version and their corrections committed after the first ``have``."""
+        with self._tx() as conn:
+            version = conn.execute(
+                select(UserRow.version).where(UserRow.home == self.home.name, UserRow.name == user)
+            ).scalar_one_or_none()
+            return version or 0, self._examples(conn, user, have)  # type: ignore[attr-defined]
 
     def counts(self) -> dict[str, int]:
         """Rows of the home per table: nodes, clusters (shared and per user), experiences, users."""

@@ -161,8 +161,9 @@ class Runtime:
         self._checked = time.monotonic()
         version = self.store.home_version()  # one primary-key lookup
         if version != self._version:
+            tree = core.refresh(self.store, self.tree, self.lock)
             with self.lock:
-                self.tree = core.refresh(self.store, self.tree)
+                self.tree = tree
             self._version = version
 
     def correct(self, c: Correction) -> dict[str, Any]:
