@@ -22,6 +22,10 @@ from homecog.paths import create_private_file, data_file, make_private_dirs
 CONNECT_TIMEOUT = 10  # seconds to wait for a database server (unless the URL says connect_timeout)
 
 
+#: an execution option of a connection whose transaction only reads
+READ_ONLY = "homecog_read_only"
+
+
 def is_conflict(e: DBAPIError) -> bool:
     """Whether a database error is a deadlock or serialization failure (worth a retry)."""
     orig = e.orig
@@ -97,7 +101,10 @@ def make_engine(url: str) -> Engine:
 
             @event.listens_for(engine, "begin")
             def _begin(conn: Connection) -> None:
-                conn.exec_driver_sql("BEGIN IMMEDIATE")
+                # a reader takes no lock (WAL: it reads the last commit); a writer the write lock
+                # at once, so two never deadlock upgrading a read to a write
+                read = conn.get_execution_options().get(READ_ONLY)
+                conn.exec_driver_sql("BEGIN" if read else "BEGIN IMMEDIATE")
 
             return engine
         return create_engine(url, pool_pre_ping=True, connect_args=server_connect_args(url))

@@ -23,7 +23,7 @@ from sqlalchemy import func, select
 from sqlalchemy.exc import SQLAlchemyError
 
 from homecog.errors import StoreError
-from homecog.knowledge.database import redact
+from homecog.knowledge.database import READ_ONLY, redact
 from homecog.knowledge.schema import ExperienceRow
 from homecog.knowledge.store import Store
 
@@ -95,7 +95,7 @@ def correction_history(
         .limit(limit + 1)  # one more: whether there is an older page
     )
     try:
-        with store.engine.connect() as conn:
+        with store.engine.connect().execution_options(**{READ_ONLY: True}) as conn:
             total = conn.execute(select(func.count()).select_from(ExperienceRow).where(*where)).scalar_one()
             rows = conn.execute(latest).all()
             older, rows = len(rows) > limit, rows[:limit]

@@ -37,6 +37,7 @@ from homecog.errors import ConflictError, NameProblemError, StoreError
 from homecog.home.model import Home
 from homecog.knowledge.corrections import Example
 from homecog.knowledge.database import (
+    READ_ONLY,
     db_message,
     default_url,
     is_conflict,
@@ -129,10 +130,15 @@ class Store(StoreLog):
                 )
 
     @contextmanager
-    def _tx(self) -> Iterator[Connection]:
+    def _tx(self, *, read: bool = False) -> Iterator[Connection]:
+        """A transaction; ``read``: one that only reads (on SQLite it then takes no write lock,
+        so it neither waits behind a correction nor holds one up)."""
         try:
-            with self.engine.begin() as conn:
-                yield conn
+            with self.engine.connect() as conn:
+                if read:
+                    conn.execution_options(**{READ_ONLY: True})
+                with conn.begin():
+                    yield conn
         except StoreError:
             raise
         except (OperationalError, DBAPIError) as e:
@@ -146,19 +152,19 @@ class Store(StoreLog):
 
     # -- reading --------------------------------------------------------------------------------
     def has_tree(self) -> bool:
-        with self._tx() as conn:
+        with self._tx(read=True) as conn:
             row = conn.execute(select(HomeRow.built_at).where(HomeRow.name == self.home.name)).first()
             return row is not None and row[0] is not None
 
     def mode(self) -> str | None:
-        with self._tx() as conn:
+        with self._tx(read=True) as conn:
             row = conn.execute(select(HomeRow.mode).where(HomeRow.name == self.home.name)).first()
             return None if row is None else row[0]
 
     def load_tree(self) -> IHDRTree:
         """The tree as stored: shared nodes and clusters, and every user's layer."""
         h = self.home.name
-        with self._tx() as conn:
+        with self._tx(read=True) as conn:
             home_row = conn.execute(select(HomeRow).where(HomeRow.name == h)).first()
             if home_row is None or home_row.built_at is None:
                 raise StoreError(f"database {redact(self.url)}: no knowledge tree yet; run homecog build")
@@ -202,7 +208,7 @@ class Store(StoreLog):
 
     def read_user(self, user: str) -> tuple[int, list[Example]]:
         """A user's version and corrections as committed (what a tree should hold of them)."""
-        with self._tx() as conn:
+        with self._tx(read=True) as conn:
             version = conn.execute(USER_VERSION, {"h": self.home.name, "u": user}).scalar_one_or_none()
             return version or 0, self._examples(conn, user)
 

@@ -41,13 +41,13 @@ class StoreLog:
     _build: int
     _versions: dict[str, int]
 
-    def _tx(self) -> AbstractContextManager[Connection]:  # the store's
+    def _tx(self, *, read: bool = False) -> AbstractContextManager[Connection]:  # the store's
         raise NotImplementedError
 
     def home_version(self) -> tuple[int, int] | None:
         """``(version, build)`` of the home: the version moves on every write, the build on every
         build; ``None`` when the database has no such home. One primary-key lookup."""
-        with self._tx() as conn:
+        with self._tx(read=True) as conn:
             row = conn.execute(
                 select(HomeRow.version, HomeRow.build).where(HomeRow.name == self.home.name)
             ).first()
@@ -56,7 +56,7 @@ class StoreLog:
     def stale_users(self) -> list[str] | None:
         """The users whose corrections other processes changed since this store's tree read
         them; ``None`` after another build (the whole tree is then to be loaded again)."""
-        with self._tx() as conn:
+        with self._tx(read=True) as conn:
             build = conn.execute(select(HomeRow.build).where(HomeRow.name == self.home.name)).scalar()
             if build != self._build:
                 return None
@@ -67,7 +67,7 @@ class StoreLog:
 
     def user_after(self, user: str, have: int) -> tuple[int, list[Example]]:
         """A user's version and their corrections committed after the first ``have``."""
-        with self._tx() as conn:
+        with self._tx(read=True) as conn:
             version = conn.execute(
                 select(UserRow.version).where(UserRow.home == self.home.name, UserRow.name == user)
             ).scalar_one_or_none()
@@ -81,7 +81,7 @@ class StoreLog:
             query = select(func.count()).select_from(table).where(table.home == h, *where)
             return conn.execute(query).scalar_one()
 
-        with self._tx() as conn:
+        with self._tx(read=True) as conn:
             return {
                 "nodes": count(NodeRow),
                 "clusters": count(ClusterRow, ClusterRow.user.is_(None)),
@@ -95,7 +95,7 @@ class StoreLog:
         """Experiences in the log: the samples of the build the tree is built from, and every
         single sample and correction (what :meth:`rebuild` learns; an earlier build's samples
         are not counted, nor kept)."""
-        with self._tx() as conn:
+        with self._tx(read=True) as conn:
             # single samples and corrections: one indexed count; the build's samples: the
             # count the build wrote beside the tree
             others = conn.execute(
@@ -124,14 +124,14 @@ class StoreLog:
     def holds_other_home(self) -> bool:
         """Whether the database holds this home's name for other content (another home file): a
         store opened to replace it, whose next build replaces it whole."""
-        with self._tx() as conn:
+        with self._tx(read=True) as conn:
             stored = conn.execute(select(HomeRow.content_hash).where(HomeRow.name == self.home.name)).scalar()
         return stored is not None and stored != self.home.content_hash
 
     def singles(self) -> list[tuple[str, str | None, dict[str, Any]]]:
         """Every single sample and correction of the log, ``(kind, user, payload)``, in the order
         they were committed."""
-        with self._tx() as conn:
+        with self._tx(read=True) as conn:
             rows = conn.execute(
                 select(ExperienceRow.kind, ExperienceRow.user, ExperienceRow.payload)
                 .where(ExperienceRow.home == self.home.name, ExperienceRow.kind.in_(["correction", "sample"]))
@@ -142,7 +142,7 @@ class StoreLog:
     def last_build(self) -> tuple[str, Iterator[SampleSet]]:
         """The mode of the last build and its samples as the log keeps them (made again from
         the compact log part by part); :class:`StoreError` when the log holds none."""
-        with self._tx() as conn:
+        with self._tx(read=True) as conn:
             rows = conn.execute(
                 select(ExperienceRow.payload, ExperienceRow.data)
                 .where(ExperienceRow.home == self.home.name, ExperienceRow.kind == "samples")
