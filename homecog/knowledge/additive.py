@@ -27,9 +27,12 @@ model's probability are averaged into one answer (:class:`~homecog.knowledge.cor
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Hashable, Sequence
-from itertools import combinations
+from itertools import repeat
+
+import numpy as np
 
 #: FTRL-proximal's settings: learning rate α, its offset β, the L1 and L2 strengths
 ALPHA, BETA, L1, L2 = 0.1, 1.0, 0.5, 1.0
@@ -37,11 +40,21 @@ ALPHA, BETA, L1, L2 = 0.1, 1.0, 0.5, 1.0
 LIMIT = 35.0
 
 
+@functools.lru_cache(maxsize=64)
+def _pairs(n: int) -> tuple[np.ndarray, np.ndarray]:
+    """The positions of every pair of ``n`` atoms, in the order of ``itertools.combinations``."""
+    first, second = np.triu_indices(n, 1)
+    return first, second
+
+
 class AtomLogistic:
     """A logistic model over atoms and their pairs, learned online by FTRL-proximal.
 
     Parameters are stored as given (``alpha``, ``beta``, ``l1``, ``l2``); what it learned lives in
-    ``_z`` and ``_n`` (FTRL's accumulated gradients and squared gradients per feature).
+    arrays indexed by a feature's slot (``_slot``, in the order features were first seen): FTRL's
+    accumulated gradients ``_z`` and squared gradients ``_n``, and the weights they give ``_w``
+    (0 for a feature that has not earned one). An example's features are updated together, as
+    each feature's update depends on its own state and the example's gradient alone.
     """
 
     def __init__(self, alpha: float = ALPHA, beta: float = BETA, l1: float = L1, l2: float = L2) -> None:
@@ -49,48 +62,62 @@ class AtomLogistic:
         self.beta = beta
         self.l1 = l1
         self.l2 = l2
-        self._z: dict[Hashable, float] = {}
-        self._n: dict[Hashable, float] = {}
-        self._w: dict[Hashable, float] = {}  # the weights FTRL's z and n give (0: absent)
+        self._atom_ids: dict[tuple[int, Hashable], int] = {}
+        self._slot: dict[int, int] = {}
+        self._z = np.zeros(64)
+        self._n = np.zeros(64)
+        self._w = np.zeros(64)
 
-    @staticmethod
-    def features(service: int, atoms: Sequence[Hashable]) -> list[Hashable]:
-        """An example's features: a bias, every atom and every pair of atoms (shared by all
-        services), and the service's own bias and atoms."""
-        named = [(j, atom) for j, atom in enumerate(atoms)]
-        return [
-            "bias",
-            *named,
-            *combinations(named, 2),
-            (service, "bias"),
-            *((service, j, atom) for j, atom in named),
-        ]
+    def features(self, service: int, atoms: Sequence[Hashable]) -> np.ndarray:
+        """An example's features, as ints: a bias, every atom and every pair of atoms (shared
+        by all services), and the service's own bias and atoms. An atom (its position and
+        value) is named by the order it was first seen in; a feature's int says its kind in
+        the two low bits."""
+        ids = self._atom_ids
+        named = np.fromiter(
+            (ids.setdefault(a, len(ids)) for a in enumerate(atoms)), dtype=np.int64, count=len(atoms)
+        )
+        first, second = _pairs(len(atoms))
+        own = (service << 32) | np.concatenate([[0], named + 1])
+        return np.concatenate(
+            [[0], 1 + 4 * named, 2 + 4 * ((named[first] << 26) | named[second]), 3 + 4 * own]
+        )
 
-    def _weight(self, z: float, n: float) -> float:
-        if abs(z) <= self.l1:
-            return 0.0
-        return -(z - math.copysign(self.l1, z)) / ((self.beta + math.sqrt(n)) / self.alpha + self.l2)
-
-    def _probability(self, features: list[Hashable]) -> float:
-        w = self._w
-        x = sum(w.get(f, 0.0) for f in features)
+    def _probability(self, weights: list[float]) -> float:
+        x = sum(weights)  # in the features' order, as every answer adds them
         return 1.0 / (1.0 + math.exp(-max(-LIMIT, min(LIMIT, x))))
 
     def predict_one(self, service: int, atoms: Sequence[Hashable]) -> float:
         """The probability that ``service`` is wanted where an example has these atoms."""
-        return self._probability(self.features(service, atoms))
+        features = self.features(service, atoms).tolist()
+        idx = np.fromiter(map(self._slot.get, features, repeat(-1)), dtype=np.intp, count=len(features))
+        return self._probability(self._w[idx[idx >= 0]].tolist())
+
+    def _slots(self, features: np.ndarray) -> np.ndarray:
+        """The features' slots, new features given the next ones (the arrays grown to hold them)."""
+        slot, listed = self._slot, features.tolist()
+        idx = np.fromiter(map(slot.get, listed, repeat(-1)), dtype=np.intp, count=len(listed))
+        new = np.flatnonzero(idx < 0)
+        if len(new):
+            for k in new.tolist():
+                idx[k] = slot.setdefault(listed[k], len(slot))
+            if len(slot) > len(self._z):
+                size = max(len(slot), 2 * len(self._z))
+                self._z, self._n, self._w = (
+                    np.concatenate([a, np.zeros(size - len(a))]) for a in (self._z, self._n, self._w)
+                )
+        return idx
 
     def learn_one(self, service: int, atoms: Sequence[Hashable], wanted: bool, weight: float = 1.0) -> None:
         """One example: ``service`` wanted or not, counted ``weight`` times (its gradient scaled)."""
-        features = self.features(service, atoms)
-        g = weight * (self._probability(features) - wanted)
-        for f in features:
-            n = self._n.get(f, 0.0)
-            sigma = (math.sqrt(n + g * g) - math.sqrt(n)) / self.alpha
-            z = self._z[f] = self._z.get(f, 0.0) + g - sigma * self._w.get(f, 0.0)
-            n = self._n[f] = n + g * g
-            w = self._weight(z, n)
-            if w:
-                self._w[f] = w
-            else:
-                self._w.pop(f, None)
+        idx = self._slots(self.features(service, atoms))
+        w_old = self._w[idx]
+        g = weight * (self._probability(w_old.tolist()) - wanted)
+        n_old = self._n[idx]
+        sigma = (np.sqrt(n_old + g * g) - np.sqrt(n_old)) / self.alpha
+        z = self._z[idx] + g - sigma * w_old
+        n = n_old + g * g
+        self._z[idx], self._n[idx] = z, n
+        shrunk = z - np.copysign(self.l1, z)
+        w = -shrunk / ((self.beta + np.sqrt(n)) / self.alpha + self.l2)
+        self._w[idx] = np.where(np.abs(z) <= self.l1, 0.0, w)

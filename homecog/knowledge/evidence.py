@@ -45,13 +45,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from homecog.knowledge.cuts import best_cut, kt_share, loo_loss, widened
+from homecog.knowledge.cuts import best_cut, loo_loss, widened
 from homecog.knowledge.keys import Atom, Decision, Key, Recent, cell_of, keys_of, sign_of
 from homecog.knowledge.locality import Hull
 from homecog.knowledge.mixture import mixed
 
 #: the fewest examples a cell of a key with fewer atoms must hold to answer for an empty one
 BACKOFF = 5
+#: the log loss of one half, an empty cell's estimate
+LOG2 = -math.log(0.5)
 #: corrections' worth that must agree in a cell before its answer holds beyond their hull
 WIDEN = 10
 
@@ -138,6 +140,12 @@ class ServiceLearner:
         self._prior_rank = [(-len(self.prior.intersection(k)), len(set(k) - self.prior)) for k in self.keys]
         self._all_keys = np.arange(len(self.keys))
         self._partial_array = np.array(self._partial_keys, dtype=np.intp)
+        self._context_array = np.array(
+            [i for i in range(len(self.keys)) if i not in self._recent_keys], dtype=np.intp
+        )
+        self._rank_prior, self._rank_other = (
+            np.array(r, dtype=np.intp).reshape(-1) for r in zip(*self._prior_rank, strict=True)
+        )
 
     def _start_recent(self) -> None:
         """The recent past's keys join, with every example so far counted in them."""
@@ -155,7 +163,7 @@ class ServiceLearner:
         """Whether the learner learns a stream: its examples know the recent past and each says
         whether the service was wanted (none partial). A stream of whole examples — a
         household's event log — stands on its own: keys are judged by how each predicted every
-        example before it was counted, and averaged by that (:meth:`_mixed`). Partial
+        example before it was counted, and averaged by that (:mod:`homecog.knowledge.mixture`). Partial
         examples — a person's hands, mostly "wanted" — only refine the shared knowledge, by the
         leave-one-out choice of a key that holds the shared answer."""
         return self._recent_on and not self._partial
@@ -217,9 +225,7 @@ class ServiceLearner:
         atoms = self.atoms(readings, codes, shared, recent)
         self._atoms.append(atoms)
         keys = self._shared_keys if partial else range(len(self.keys))
-        if self.streaming:
-            self._score(atoms, wanted, keys, weight)
-        self._count(atoms, wanted, keys, weight)
+        self._count(atoms, wanted, keys, weight, score=self.streaming)
         self._best = self._backoff = self._ranking = None
         self._hulls = {}
         n = len(self._examples)
@@ -227,18 +233,32 @@ class ServiceLearner:
             self._next_cut = max(n + 8, 2 * n)
             self._recut()
 
-    def _count(self, atoms: tuple[Atom, ...], wanted: bool, keys: Iterable[int], step: int = 1) -> None:
+    def _count(
+        self,
+        atoms: tuple[Atom, ...],
+        wanted: bool,
+        keys: Iterable[int],
+        step: int = 1,
+        *,
+        score: bool = False,
+    ) -> None:
         """Count an example ``step`` times in the cells of ``keys`` (a negative ``step``: take it
-        out again; a cell's latest example is then left as it was)."""
-        tables, loo, cell_of = self._tables, self._loo, self._cell
+        out again; a cell's latest example is then left as it was). With ``score``, first every
+        key's prequential loss on it: how well its cell predicted it before it was counted."""
+        tables, loo, preq, cell_of = self._tables, self._loo, self._preq, self._cell
         for i in keys:
             cell = cell_of[i](atoms)
             table = tables[i]
             counts = table.get(cell)
             if counts is None:
+                if score:
+                    preq[i] += step * LOG2  # an empty cell said one half
                 counts = table[cell] = [0, 0, 0]
                 before = 0.0
             else:
+                if score:
+                    q = (counts[0] + 0.5) / (counts[0] + counts[1] + 1)
+                    preq[i] -= step * math.log(q if wanted else 1.0 - q)
                 before = loo_loss(counts[0], counts[1])
             counts[0 if wanted else 1] += step
             if step > 0:
@@ -246,14 +266,6 @@ class ServiceLearner:
             elif not counts[0] and not counts[1]:
                 del table[cell]
             loo[i] += loo_loss(counts[0], counts[1]) - before
-
-    def _score(self, atoms: tuple[Atom, ...], wanted: bool, keys: Iterable[int], weight: int) -> None:
-        """Every key's loss on an example before it is counted: how well its cell predicted it."""
-        preq, tables, cell_of = self._preq, self._tables, self._cell
-        for i in keys:
-            counts = tables[i].get(cell_of[i](atoms))
-            q = kt_share(counts) if wanted else 1.0 - kt_share(counts)
-            preq[i] -= weight * math.log(q)
 
     def _recut(self) -> None:
         """Choose the thresholds again; the examples whose interval moved change cells."""
@@ -312,7 +324,8 @@ class ServiceLearner:
         where none does, the evidence says nothing (0) and the shared tree answers."""
         atoms = self.atoms(readings, codes, shared, recent)
         if self.streaming:
-            return self._mixed(atoms, threshold, snapshot=not recent)
+            ranked = self._ranked(snapshot=not recent)  # the keys' cells mixed by posterior weight
+            return mixed(self.keys, self._tables, self._cell, self._preq, ranked, atoms, threshold)
         chain = self.backoff()
         for depth, key in enumerate(chain):
             cell = tuple(atoms[k] for k in key)
@@ -352,28 +365,16 @@ class ServiceLearner:
             hull = self._hulls[(i, cell, wanted)] = Hull.of(members, clock=self.clock, numeric=numeric)
         return hull.holds(readings, atoms[:n_context])
 
-    def _candidates(self, snapshot: bool) -> range | list[int]:
-        """The keys a stream's answer weighs: every key, or the context's alone (a snapshot)."""
-        if not snapshot:
-            return range(len(self.keys))
-        return [i for i in range(len(self.keys)) if i not in self._recent_keys]
-
-    def _mixed(self, atoms: tuple[Atom, ...], threshold: float, *, snapshot: bool) -> Decision:
-        """In a stream: the keys' cells mixed by their posterior weights
-        (:mod:`homecog.knowledge.mixture`)."""
-        ranked = self._ranked(snapshot)
-        return mixed(self.keys, self._tables, self._cell, self._preq, ranked, atoms, threshold)
-
     def _ranked(self, snapshot: bool) -> list[int]:
-        """The keys a stream's answer weighs, the most weight first (least prequential loss; ties:
-        the prior's rank, then the first)."""
+        """The keys a stream's answer weighs — every key, or the context's alone (a snapshot) —
+        the most weight first (least prequential loss; ties: the prior's rank, then the first)."""
         if self._ranking is None:
             self._ranking = {}
         if snapshot not in self._ranking:
-            rank = self._prior_rank
-            self._ranking[snapshot] = sorted(
-                self._candidates(snapshot), key=lambda i: (round(self._preq[i], 6), rank[i], i)
-            )
+            among = self._context_array if snapshot else self._all_keys
+            preq = np.round(np.asarray(self._preq)[among], 6)
+            order = np.lexsort((among, self._rank_other[among], self._rank_prior[among], preq))
+            self._ranking[snapshot] = among[order].tolist()
         return self._ranking[snapshot]
 
     def backoff(self) -> list[Key]:
