@@ -343,3 +343,42 @@ def test_corrections_and_cognitions_looking_at_the_database_never_deadlock(store
     assert runtime.tree.n_clusters("ann") == len(lights)  # the other's, learned on top
     other.close()
     store.close()
+
+
+def test_a_user_s_layer_is_learned_off_the_robot_s_lock_and_other_users_never_wait(stored, tmp_path):
+    """After a restart a user's first answer learns their layer from every correction: under
+    that user's lock alone, so that while it learns the robot's lock is free and another
+    user's cognition is answered; the user's own waits, then answers as before the restart."""
+    import threading
+
+    home, _ = stored
+    url = _copy(stored, tmp_path)
+    store = Store.open(url, home)
+    tree = store.load_tree()
+    point = tree.space.point({k: str(v) for k, v in WORK.items()})
+    for want in (["RadioOff"], ["RadioOff", "LampOn"], ["RadioOff"]):
+        core.correct(store, tree, Correction.whole("kim", point, want))
+    before = tree.predict_one(point, "kim")
+    store.close()
+    store = Store.open(url, home)  # the restart: kim's corrections read, her layer not learned
+    source = ManualSource(home)
+    source.set_context({k: str(v) for k, v in WORK.items()})
+    runtime = Runtime(home=home, store=store, tree=store.load_tree(), source=source)
+    assert not runtime.tree.ready("kim") and runtime.tree.ready("ann")
+    answers: dict[str, list[str]] = {}
+
+    def ask(user: str) -> None:
+        answers[user] = runtime.cognize(WORK, user)["services"]
+
+    with runtime.tree.user_lock("kim"):  # kim's layer being learned
+        kim = threading.Thread(target=ask, args=("kim",))
+        kim.start()
+        kim.join(0.3)
+        assert kim.is_alive() and not runtime.lock.locked()  # she waits, the robot's lock free
+        ann = threading.Thread(target=ask, args=("ann",))
+        ann.start()
+        ann.join(10)
+        assert not ann.is_alive() and "ann" in answers  # another user is answered meanwhile
+    kim.join(10)
+    assert runtime.tree.ready("kim") and answers["kim"] == before
+    store.close()

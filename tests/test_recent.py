@@ -125,3 +125,32 @@ def test_how_long_ago_a_device_switched_by_the_services_or_by_its_state():
     past.learn(T0 + timedelta(hours=5), {**x, "lamp": "on", "tv_living": "on"}, [])
     assert past.at(T0 + timedelta(hours=5), x).switched == ()  # forgotten after four hours
     assert Recent(at=None, values=()).since_switched("lamp") == "unknown"
+
+
+def test_a_moment_wanting_a_device_both_ways_is_the_same_past_in_every_process():
+    """Two wanted services that set one device each way (an inconsistent wish): the device's
+    state and switch are taken in one order, whatever the process's hash seed."""
+    import os
+    import subprocess
+    import sys
+
+    code = (
+        "from datetime import datetime, timedelta; from homecog.home import load_home; "
+        "from homecog.home.recent import RecentPast; home = load_home('paper'); past = RecentPast(home); "
+        "t = datetime(2026, 1, 1, 20); "
+        "past.learn(t, {'lamp': 'off'}, ['TurnOffLamp', 'TurnOnLamp', 'TurnOffLight', 'TurnOnLight']); "
+        "past.learn(t + timedelta(minutes=20), {'lamp': 'on', 'ceiling_light': 'off'}, []); "
+        "at = past.at(t + timedelta(minutes=21), {}); "
+        "print(at.since_switched('lamp'), at.since_switched('ceiling_light'))"
+    )
+    answers = {
+        subprocess.run(
+            [sys.executable, "-c", code],
+            env={**os.environ, "PYTHONHASHSEED": str(seed)},
+            capture_output=True,
+            text=True,
+            check=True,
+        ).stdout.strip()
+        for seed in range(6)
+    }
+    assert len(answers) == 1 and answers != {""}

@@ -40,7 +40,7 @@ PAPER_X = {
 def posterior(learner: ServiceLearner, *, snapshot: bool = False) -> dict[int, float]:
     """The keys' weights in a stream, each ``exp(−prequential loss)`` normalized (Bayes' rule over
     the keys), per key position; for a ``snapshot`` the keys of the context alone."""
-    candidates = learner._candidates(snapshot)
+    candidates = learner._ranked(snapshot).tolist()
     least = min(learner._preq[i] for i in candidates)
     weights = {i: math.exp(least - learner._preq[i]) for i in candidates}
     total = sum(weights.values())

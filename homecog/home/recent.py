@@ -200,7 +200,7 @@ class RecentPast:
 
     def _learn_switches(self, when: datetime, wanted: frozenset[str]) -> None:
         """What the moment's services switched, and the switches too old to tell forgotten."""
-        for service in wanted:
+        for service in sorted(wanted):  # in one order in every process (two may set one device)
             for device, state in self._sets.get(service, ()):
                 if self._states.get(device) != state:
                     self._switched[device] = when

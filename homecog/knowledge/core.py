@@ -36,15 +36,18 @@ homecog.errors.ContextError: unknown service 'Fly'; expected some of ...
 from __future__ import annotations
 
 import random
+import threading
 import time
-from collections.abc import Iterable, Sequence
-from contextlib import AbstractContextManager, nullcontext
+from collections.abc import Iterable, Iterator, Sequence
+from contextlib import AbstractContextManager, contextmanager, nullcontext
 from typing import Any
 
 from homecog.errors import ConflictError
+from homecog.home.codec import Point
 from homecog.knowledge.correction import Correction, Outcome, point_of_row
 from homecog.knowledge.corrections import Example
 from homecog.knowledge.ihdr import IHDRTree
+from homecog.knowledge.model import Cognition
 from homecog.knowledge.sample_log import SampleLog
 from homecog.knowledge.samples import SampleSet
 from homecog.knowledge.store import Store
@@ -53,6 +56,33 @@ from homecog.knowledge.store import Store
 CONFLICT_RETRIES = 50
 #: no lock: a tree nobody else reads meanwhile
 NO_LOCK = nullcontext()
+
+
+@contextmanager
+def reading(tree: IHDRTree, lock: AbstractContextManager[Any], user: str | None) -> Iterator[IHDRTree]:
+    """``tree``, to answer for ``user``: their layer learned first, under their lock alone (other
+    users' answers never wait on it), then held with ``lock``, the robot's. A correction learns
+    under the user's lock alone, so only that user's answers wait on it."""
+    tree.prepare(user)
+    with tree.user_lock(user), lock:
+        yield tree
+
+
+def answer_now(tree: IHDRTree, lock: threading.Lock, p: Point, user: str | None) -> Cognition | None:
+    """The answer for ``user`` at ``p`` where it need not wait, else None: the user's layer not
+    learned yet, or their lock or ``lock`` held."""
+    mine = tree.user_lock(user)
+    if not tree.ready(user) or not mine.acquire(blocking=False):
+        return None
+    try:
+        if not lock.acquire(blocking=False):
+            return None
+        try:
+            return tree.explain_one(p, user=user)
+        finally:
+            lock.release()
+    finally:
+        mine.release()
 
 
 def correct(
@@ -66,11 +96,12 @@ def correct(
     cognition never waits on a commit. One user's corrections in one process run one at a time
     (:meth:`Store.user_lock`); other processes' are told apart by the user's version."""
     with store.user_lock(c.user):
+        tree.prepare(c.user)  # the user's layer learned before the lock is taken, if it must be
         for attempt in range(CONFLICT_RETRIES):
             try:
                 with store.transaction() as conn:
                     version, examples = store.lock_user(conn, c.user, tree.n_clusters(c.user))
-                    with lock:
+                    with tree.user_lock(c.user), lock:
                         _take(store, tree, c.user, version, examples)
                         added, rejected = tree.judge(c)
                         context = tree.space.context(c.point)
@@ -80,7 +111,7 @@ def correct(
                 if attempt == CONFLICT_RETRIES - 1:
                     raise
                 time.sleep(random.uniform(0, 0.01 * (attempt + 1)))
-        with lock:
+        with tree.user_lock(c.user):  # only the user's own answers wait while it learns
             tree.apply(c)
             store.holds(c.user, version + 1)
             number = tree.n_clusters(c.user)
@@ -129,10 +160,11 @@ def refresh(store: Store, tree: IHDRTree, lock: AbstractContextManager[Any] = NO
         return store.load_tree()
     for user in stale:
         with store.user_lock(user):
+            tree.prepare(user)
             with lock:
                 have = tree.n_clusters(user)
             version, more = store.user_after(user, have)
-            with lock:
+            with tree.user_lock(user), lock:
                 _take(store, tree, user, version, more)
     return tree
 

@@ -32,13 +32,13 @@ True
 from __future__ import annotations
 
 import math
+import threading
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, replace
 from typing import Any
 
-from homecog.home.clock import format_clock
 from homecog.home.codec import Point, Space
-from homecog.home.model import Home, format_number
+from homecog.home.model import Home
 from homecog.home.recent import Recent, recent_names
 from homecog.knowledge.additive import AtomLogistic
 from homecog.knowledge.evidence import ServiceLearner
@@ -105,10 +105,10 @@ class UserLayers:
         self._shared = shared
         self._version = version
         self._relevant = relevant
-        self._n_features = space.n_features
+        self.n_features = space.n_features
         self.recent_names = recent_names(home)
         # and: was the service wanted just before, which services were, when its device switched
-        self._n_recent = len(self.recent_names) + 3
+        self.n_recent = len(self.recent_names) + 3
         self._device_of = [s.sets[0][0] if s.sets else None for s in home.services]
         self._names = home.service_names
         # per numeric feature, its bins' edges: a threshold learned from readings joins them
@@ -139,6 +139,23 @@ class UserLayers:
         # the latest answers: (user, point, the user's examples then, shared version), the
         # shared answer and the user's answers there
         self._last: tuple[tuple[Any, ...], frozenset[int], dict[int, Decision]] | None = None
+        # per user, the lock their layer is learned and read under (:meth:`lock`)
+        self._locks: dict[str | None, threading.RLock] = {}
+
+    def __getstate__(self) -> dict[str, Any]:
+        """The layers as pickle keeps them: without their locks (made again as they are asked)."""
+        return {**self.__dict__, "_locks": {}}
+
+    def lock(self, user: str | None) -> threading.RLock:
+        """The lock of a user's layer: learning it (the first answer's, a correction's) holds
+        it, and so may an answer that reads it; other users' answers never wait on it."""
+        lock = self._locks.get(user)
+        return lock if lock is not None else self._locks.setdefault(user, threading.RLock())
+
+    def ready(self, user: str | None) -> bool:
+        """Whether a user's layer is learned for the shared tree as it is (else the next answer
+        learns it from every correction first)."""
+        return user not in self._examples or self._made_at.get(user) == self._version()
 
     @property
     def users(self) -> list[str]:
@@ -162,6 +179,10 @@ class UserLayers:
 
     def set_examples(self, user: str, examples: list[Example]) -> None:
         """Replace a user's corrections (the store, loading them from the log)."""
+        with self.lock(user):
+            self._replace(user, examples)
+
+    def _replace(self, user: str, examples: list[Example]) -> None:
         for made in (self._learners, self._made_at, self._threshold, self._additive):
             made.pop(user, None)
         if examples:
@@ -193,12 +214,13 @@ class UserLayers:
     def extend(self, user: str, more: list[Example]) -> None:
         """A user's corrections that come after those the layer has (another process's): each
         learned at once, as if it had been made here."""
-        examples = self._examples.setdefault(user, [])
-        for example in more:
-            examples.append(example)
-            if self._made_at.get(user) == self._version():
-                self._learn(user, example, len(examples))
-            # else: made again from every example at the next answer
+        with self.lock(user):
+            examples = self._examples.setdefault(user, [])
+            for example in more:
+                examples.append(example)
+                if self._made_at.get(user) == self._version():
+                    self._learn(user, example, len(examples))
+                # else: made again from every example at the next answer
 
     def _learn(self, user: str, example: Example, ident: int) -> None:
         learners = self._learners.setdefault(user, {})
@@ -220,11 +242,11 @@ class UserLayers:
             learner = learners.get(a)
             if learner is None:
                 learner = learners[a] = ServiceLearner(
-                    self._n_features + self._n_recent + 1,
+                    self.n_features + self.n_recent + 1,
                     self._numeric,
                     self.order,
                     self._relevant(a),
-                    n_recent=self._n_recent,
+                    n_recent=self.n_recent,
                     clock=self._clock,
                 )
             wanted = a in example.want
@@ -286,11 +308,14 @@ class UserLayers:
         """A user's learners per service, made again if the shared tree changed since."""
         version = self._version()
         if self._made_at.get(user) != version:
-            self._learners[user] = {}
-            self._made_at[user] = version
-            self._threshold.pop(user, None)
-            for i, example in enumerate(self._examples.get(user, []), start=1):
-                self._learn(user, example, i)
+            with self.lock(user):
+                if self._made_at.get(user) != version:
+                    self._learners[user] = {}
+                    self._additive.pop(user, None)  # learned again too, never twice
+                    self._threshold.pop(user, None)
+                    for i, example in enumerate(self._examples.get(user, []), start=1):
+                        self._learn(user, example, i)
+                    self._made_at[user] = version
         return self._learners.get(user, {})
 
     def _value(self, user: str) -> float:
@@ -322,45 +347,6 @@ class UserLayers:
             if d.sign:
                 yield a, d
 
-    def explain(self, user: str | None, a: int, decision: Decision) -> tuple[dict[str, str], dict[str, Any]]:
-        """What a user's answer matched — per feature of its key, the value or the learned
-        interval — and its evidence: the corrections (the user's 1st, 2nd, …) in that cell that
-        agree, how many agreed and how many did not."""
-        assert user is not None
-        learner = self.learners(user)[a]
-        conditions: dict[str, str] = {}
-        for pos, j in enumerate(decision.key):
-            if j == self._n_features + self._n_recent:
-                conditions["shared knowledge"] = (
-                    "proposes it" if decision.cell[pos] else "does not propose it"
-                )
-                continue
-            if j >= self._n_features:
-                names = [
-                    *self.recent_names,
-                    "wanted just before",
-                    "services just before",
-                    "since its device switched",
-                ]
-                conditions[names[j - self._n_features]] = str(decision.cell[pos])
-                continue
-            feature = self.home.features[j]
-            atom = decision.cell[pos]
-            if feature.bins is None:
-                conditions[feature.name] = feature.values[atom]  # type: ignore[index]
-            elif isinstance(atom, tuple):
-                conditions[feature.name] = f"{feature.values[atom[1]]} {feature.describe_bin(atom[1])}"  # type: ignore[index]
-            else:
-                conditions[feature.name] = _interval(feature, *learner.interval(decision, j))
-        agree = decision.sign > 0
-        members = [i for i, wanted in learner.members(decision) if wanted == agree]
-        evidence = {
-            "agreed": decision.wanted if agree else decision.unwanted,
-            "disagreed": decision.unwanted if agree else decision.wanted,
-            "corrections": members[-10:],
-        }
-        return conditions, evidence
-
 
 def learner_codes(p: Point) -> tuple[int, ...]:
     """A point's codes as the learners read them: −1 where a reading is missing.
@@ -371,18 +357,3 @@ def learner_codes(p: Point) -> tuple[int, ...]:
     if not p.missing:
         return p.codes
     return tuple(-1 if j in p.missing else c for j, c in enumerate(p.codes))
-
-
-def _interval(feature: Any, low: float, high: float) -> str:
-    """A learned interval as people read it: ``≥ 23 °C``, ``[16, 25) °C``, ``18:30-07:00``."""
-    if feature.kind == "clock":
-        start, end = (0.0 if math.isinf(low) else low), (24.0 if math.isinf(high) else high)
-        return f"{format_clock(start)}-{format_clock(end)}"
-    unit = f" {feature.unit}" if feature.unit else ""
-    if math.isinf(low) and math.isinf(high):
-        return "any"
-    if math.isinf(low):
-        return f"< {format_number(high)}{unit}"
-    if math.isinf(high):
-        return f"≥ {format_number(low)}{unit}"
-    return f"[{format_number(low)}, {format_number(high)}){unit}"

@@ -40,20 +40,19 @@ from __future__ import annotations
 
 import bisect
 import math
-from collections.abc import Iterable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
-from homecog.knowledge.cuts import best_cut, loo_loss, widened
+from homecog.knowledge.cells import CellCounts
+from homecog.knowledge.cuts import best_cut, loo_losses, widened
 from homecog.knowledge.keys import Atom, Decision, Key, Recent, cell_of, keys_of, sign_of
 from homecog.knowledge.locality import Hull
 from homecog.knowledge.mixture import mixed
 
 #: the fewest examples a cell of a key with fewer atoms must hold to answer for an empty one
 BACKOFF = 5
-#: the log loss of one half, an empty cell's estimate
-LOG2 = -math.log(0.5)
 #: corrections' worth that must agree in a cell before its answer holds beyond their hull
 WIDEN = 10
 
@@ -101,14 +100,13 @@ class ServiceLearner:
         self._weights: list[int] = []  # per example, how many it counts as
         self._partials: list[bool] = []  # per example, whether it is partial (see add)
         self._partial = False  # any partial example: only the keys with the shared answer answer
-        # per key (by position in self.keys): its cells' counts [wanted, unwanted, latest] and
-        # its leave-one-out loss
-        self._tables: list[dict[tuple[Atom, ...], list[int]]] = []
-        self._loo: list[float] = []
-        # per key, in a stream: its prequential log loss (each example predicted by the cell's
-        # examples before it), and the keys ranked by it (None: made again; see _ranked)
-        self._preq: list[float] = []
-        self._ranking: dict[bool, list[int]] | None = None
+        # every key's cells' counts (wanted, unwanted, latest); per key (by position in
+        # self.keys) its leave-one-out loss and, in a stream, its prequential log loss (each
+        # example predicted by the cell's examples before it), and the keys ranked by it
+        self._cells = CellCounts(self.n_atoms, max(self.order, 2))
+        self._loo = np.zeros(0)
+        self._preq = np.zeros(0)
+        self._ranking: dict[bool, np.ndarray] | None = None
         self._index_keys()
         self._best: int | None = None  # the best key's position, and every key's loss rounded
         self._rounded: list[float] = []
@@ -117,10 +115,10 @@ class ServiceLearner:
         self._next_cut = 4
 
     def _index_keys(self) -> None:
-        """Tables for keys new in ``self.keys``, and what is derived from the keys."""
-        self._tables += [{} for _ in range(len(self.keys) - len(self._tables))]
-        self._loo += [0.0] * (len(self.keys) - len(self._loo))
-        self._preq += [0.0] * (len(self.keys) - len(self._preq))
+        """Counts for keys new in ``self.keys``, and what is derived from the keys."""
+        self._cells.index_keys(self.keys)
+        self._loo = np.concatenate([self._loo, np.zeros(len(self.keys) - len(self._loo))])
+        self._preq = np.concatenate([self._preq, np.zeros(len(self.keys) - len(self._preq))])
         self._cell = [cell_of(k) for k in self.keys]
         self._index = {k: i for i, k in enumerate(self.keys)}
         # per key, its keys with one atom less
@@ -140,6 +138,7 @@ class ServiceLearner:
         self._prior_rank = [(-len(self.prior.intersection(k)), len(set(k) - self.prior)) for k in self.keys]
         self._all_keys = np.arange(len(self.keys))
         self._partial_array = np.array(self._partial_keys, dtype=np.intp)
+        self._shared_array = np.array(self._shared_keys, dtype=np.intp)
         self._context_array = np.array(
             [i for i in range(len(self.keys)) if i not in self._recent_keys], dtype=np.intp
         )
@@ -153,8 +152,8 @@ class ServiceLearner:
         self.keys = keys_of(self.n_atoms, self.order, recent=True, n_recent=self.n_recent)
         self._recent_on = True
         self._index_keys()
-        new = range(start, len(self.keys))
-        shared = [i for i in new if i in set(self._shared_keys)]
+        new = np.arange(start, len(self.keys))
+        shared = np.array([i for i in new.tolist() if i in set(self._shared_keys)], dtype=np.intp)
         for e, atoms in enumerate(self._atoms):
             self._count(atoms, self._examples[e][2], shared if self._partials[e] else new, self._weights[e])
 
@@ -224,7 +223,7 @@ class ServiceLearner:
         self._partial |= partial
         atoms = self.atoms(readings, codes, shared, recent)
         self._atoms.append(atoms)
-        keys = self._shared_keys if partial else range(len(self.keys))
+        keys = self._shared_array if partial else self._all_keys
         self._count(atoms, wanted, keys, weight, score=self.streaming)
         self._best = self._backoff = self._ranking = None
         self._hulls = {}
@@ -234,38 +233,17 @@ class ServiceLearner:
             self._recut()
 
     def _count(
-        self,
-        atoms: tuple[Atom, ...],
-        wanted: bool,
-        keys: Iterable[int],
-        step: int = 1,
-        *,
-        score: bool = False,
+        self, atoms: tuple[Atom, ...], wanted: bool, keys: np.ndarray, step: int = 1, *, score: bool = False
     ) -> None:
         """Count an example ``step`` times in the cells of ``keys`` (a negative ``step``: take it
         out again; a cell's latest example is then left as it was). With ``score``, first every
         key's prequential loss on it: how well its cell predicted it before it was counted."""
-        tables, loo, preq, cell_of = self._tables, self._loo, self._preq, self._cell
-        for i in keys:
-            cell = cell_of[i](atoms)
-            table = tables[i]
-            counts = table.get(cell)
-            if counts is None:
-                if score:
-                    preq[i] += step * LOG2  # an empty cell said one half
-                counts = table[cell] = [0, 0, 0]
-                before = 0.0
-            else:
-                if score:
-                    q = (counts[0] + 0.5) / (counts[0] + counts[1] + 1)
-                    preq[i] -= step * math.log(q if wanted else 1.0 - q)
-                before = loo_loss(counts[0], counts[1])
-            counts[0 if wanted else 1] += step
-            if step > 0:
-                counts[2] = wanted
-            elif not counts[0] and not counts[1]:
-                del table[cell]
-            loo[i] += loo_loss(counts[0], counts[1]) - before
+        p, n = self._cells.count(atoms, keys, wanted=wanted, step=step)
+        if score:
+            q = (p + 0.5) / (p + n + 1)
+            self._preq[keys] -= step * np.log(q if wanted else 1.0 - q)
+        after = loo_losses(p + step, n) if wanted else loo_losses(p, n + step)
+        self._loo[keys] += after - loo_losses(p, n)
 
     def _recut(self) -> None:
         """Choose the thresholds again; the examples whose interval moved change cells."""
@@ -280,8 +258,8 @@ class ServiceLearner:
         if not moved:
             return
         self._hulls = {}
-        keys = [i for i, k in enumerate(self.keys) if any(j in k for j in moved)]
-        shared_keys = [i for i in keys if i in set(self._shared_keys)]
+        keys = np.array([i for i, k in enumerate(self.keys) if any(j in k for j in moved)], dtype=np.intp)
+        shared_keys = np.array([i for i in keys.tolist() if i in set(self._shared_keys)], dtype=np.intp)
         for e, (readings, codes, wanted, shared, _, recent) in enumerate(self._examples):
             atoms = self.atoms(readings, codes, shared, recent)
             if atoms != self._atoms[e]:
@@ -295,7 +273,7 @@ class ServiceLearner:
         (ties: more atoms of the prior, fewer others, then the first)."""
         if self._best is None:
             losses = self._preq if self.streaming else self._loo
-            rounded = np.round(np.array(losses), 6)
+            rounded = np.round(losses, 6)
             self._rounded = rounded.tolist()
             candidates = self._all_keys if self.streaming else self._partial_array
             among = rounded[candidates]
@@ -324,12 +302,11 @@ class ServiceLearner:
         where none does, the evidence says nothing (0) and the shared tree answers."""
         atoms = self.atoms(readings, codes, shared, recent)
         if self.streaming:
-            ranked = self._ranked(snapshot=not recent)  # the keys' cells mixed by posterior weight
-            return mixed(self.keys, self._tables, self._cell, self._preq, ranked, atoms, threshold)
+            return self._mixed(atoms, threshold, snapshot=not recent)
         chain = self.backoff()
         for depth, key in enumerate(chain):
             cell = tuple(atoms[k] for k in key)
-            counts = self._tables[self._index[key]].get(cell)
+            counts = self._cells.get(self._index[key], atoms)
             if counts is not None and (depth == 0 or counts[0] + counts[1] >= BACKOFF):
                 break
         else:
@@ -365,16 +342,29 @@ class ServiceLearner:
             hull = self._hulls[(i, cell, wanted)] = Hull.of(members, clock=self.clock, numeric=numeric)
         return hull.holds(readings, atoms[:n_context])
 
-    def _ranked(self, snapshot: bool) -> list[int]:
+    def _mixed(self, atoms: tuple[Atom, ...], threshold: float, *, snapshot: bool) -> Decision:
+        """In a stream: the keys' cells mixed by posterior weight (:mod:`homecog.knowledge.mixture`),
+        explained by the awake key of the most weight and its cell."""
+        ranked = self._ranked(snapshot)
+        p, n, last = self._cells.read(atoms, ranked)
+        answer = mixed(p, n, self._preq[ranked])
+        if answer is None:
+            return Decision(sign_of(0.5, threshold, 0), (), (), 0, 0, threshold)
+        share, k = answer
+        i = int(ranked[k])
+        sign = sign_of(share, threshold, int(last[k]))
+        return Decision(sign, self.keys[i], self._cell[i](atoms), int(p[k]), int(n[k]), threshold, share)
+
+    def _ranked(self, snapshot: bool) -> np.ndarray:
         """The keys a stream's answer weighs — every key, or the context's alone (a snapshot) —
         the most weight first (least prequential loss; ties: the prior's rank, then the first)."""
         if self._ranking is None:
             self._ranking = {}
         if snapshot not in self._ranking:
             among = self._context_array if snapshot else self._all_keys
-            preq = np.round(np.asarray(self._preq)[among], 6)
+            preq = np.round(self._preq[among], 6)
             order = np.lexsort((among, self._rank_other[among], self._rank_prior[among], preq))
-            self._ranking[snapshot] = among[order].tolist()
+            self._ranking[snapshot] = among[order]
         return self._ranking[snapshot]
 
     def backoff(self) -> list[Key]:
@@ -398,4 +388,5 @@ class ServiceLearner:
     def interval(self, decision: Decision, j: int) -> tuple[float, float]:
         """The interval of numeric feature ``j`` in a decision's cell, widened over neighbouring
         cells (the same other atoms) that decide the same way: the learned interval."""
-        return widened(self._tables[self._index[decision.key]], decision, decision.key.index(j), self.cuts[j])
+        table = self._cells.table(self._index[decision.key])
+        return widened(table, decision, decision.key.index(j), self.cuts[j])

@@ -48,6 +48,7 @@ The learner speaks river's API:
 
 from __future__ import annotations
 
+import threading
 from collections.abc import Iterator, Mapping, Sequence
 from typing import Any
 
@@ -129,6 +130,19 @@ class IHDRTree:
 
     def __repr__(self) -> str:
         return f"IHDRTree(home={self.home.name!r}, mode={self.mode!r})"
+
+    def user_lock(self, user: str | None) -> threading.RLock:
+        """The lock of a user's layer (:meth:`UserLayers.lock`)."""
+        return self._layers.lock(user)
+
+    def ready(self, user: str | None) -> bool:
+        """Whether the user's next answer is quick: their layer is learned."""
+        return self._layers.ready(user)
+
+    def prepare(self, user: str | None) -> None:
+        """Learn a user's layer now, under the user's lock alone, where it is not learned."""
+        if user is not None and not self._layers.ready(user):
+            self._layers.learners(user)
 
     def n_clusters(self, user: str | None = None) -> int:
         """Clusters in the shared tree (or, with ``user``, the corrections in that user's layer)."""

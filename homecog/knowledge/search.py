@@ -14,6 +14,7 @@ from homecog.home.clock import format_clock
 from homecog.home.codec import Point
 from homecog.home.model import format_number
 from homecog.home.scenes import composition, scene_services
+from homecog.knowledge.layer_explain import layer_evidence
 from homecog.knowledge.lookup import ordered, priority, shared_search, shared_search_missing
 from homecog.knowledge.model import Cluster, Cognition, Condition, Explanation, Node, Numeric
 
@@ -84,7 +85,7 @@ def explain(t: Tree, layers: UserLayers, p: Point, user: str | None = None) -> C
         if node.service in replaced:
             conditions, evidence = {"instead of": ", ".join(replaced[node.service])}, None
         elif cluster.evidence is not None:
-            conditions, evidence = layers.explain(cluster.user, node.service, cluster.evidence)
+            conditions, evidence = layer_evidence(layers, cluster.user, node.service, cluster.evidence)
         else:
             conditions, evidence = describe(t, cluster), None
         explanations.append(

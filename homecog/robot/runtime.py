@@ -142,16 +142,24 @@ class Runtime:
     def cognize(self, context: Mapping[str, object], user: str) -> dict[str, Any]:
         point = self.space.point(context)
         self.keep_fresh()
-        with self.lock:
-            return self.tree.explain_one(point, user=user).as_dict()
+        with core.reading(self.tree, self.lock, user) as tree:
+            return tree.explain_one(point, user=user).as_dict()
 
     def cognize_json(self, context: Mapping[str, object], user: str) -> bytes:
         """:meth:`cognize` as JSON, the same object; orjson writes the dataclasses directly."""
         point = self.space.point(context)
         self.keep_fresh()
-        with self.lock:
-            answer = self.tree.explain_one(point, user=user)
+        with core.reading(self.tree, self.lock, user) as tree:
+            answer = tree.explain_one(point, user=user)
         return orjson.dumps(answer)
+
+    def cognize_now(self, context: Mapping[str, object], user: str) -> bytes | None:
+        """:meth:`cognize_json` where it need not wait (for the event loop), else None: the
+        user's layer not learned yet, or a lock held (a correction being learned or stored)."""
+        point = self.space.point(context)
+        self.keep_fresh()
+        answer = core.answer_now(self.tree, self.lock, point, user)
+        return None if answer is None else orjson.dumps(answer)
 
     def keep_fresh(self) -> None:
         """Where another process shares the database (``fresh`` seconds apart at most): the
@@ -231,8 +239,8 @@ class Runtime:
         for _ in range(len(self.home.devices) + 1):
             seen = self.pacing.steady(now)  # a reading at a bin's edge does not flap the bin
             point = replace(self.space.point(seen), recent=self.moments.recent(now))
-            with self.lock:
-                proposed = self.tree.predict_one(point, user=user)
+            with core.reading(self.tree, self.lock, user) as tree:
+                proposed = tree.predict_one(point, user=user)
             self._decided(now, proposed, user)
             acted = self.act(now, proposed, user=user, one_switch=True)
             if acted is None:
@@ -302,8 +310,8 @@ class Runtime:
 
     def _why(self, now: Mapping[str, str], services: list[str], user: str) -> list[Any]:
         point = self.space.point(now)
-        with self.lock:
-            answer = self.tree.explain_one(point, user=user).as_dict()
+        with core.reading(self.tree, self.lock, user) as tree:
+            answer = tree.explain_one(point, user=user).as_dict()
         return [e for e in answer["explanations"] if e.get("service") in services]
 
     def undo(self, action_id: int, user: str | None = None) -> dict[str, Any]:

@@ -85,8 +85,9 @@ async def answer(request: Request, model: type[BaseModel]) -> bytes | None:
     try:
         asked = model.model_validate_json(body)
         context, user = asked.context, asked.user  # type: ignore[attr-defined]
-        if runtime.lock.locked():  # a correction is being stored: wait off the loop
+        answered = runtime.cognize_now(context, user)
+        if answered is None:  # a lock held or the user's layer to learn: wait off the loop
             return await asyncio.to_thread(runtime.cognize_json, context, user)
-        return runtime.cognize_json(context, user)
+        return answered
     except (ValidationError, HomecogError):
         return None
