@@ -23,7 +23,7 @@ from homecog.cli.options import (
     status,
 )
 from homecog.cli.output import emit, emit_json, stdout
-from homecog.cli.render import days_table, eval_table, replay_table
+from homecog.cli.render import days_table, eval_table, faults_tables, replay_table
 from homecog.errors import UsageProblemError
 from homecog.home import load_home
 
@@ -187,6 +187,8 @@ def _closed_loop(
         emit_json(result)
         return
     stdout.print(days_table(result))
+    for table in faults_tables(result):
+        stdout.print(table)
     s = result["summary"]
     share = s["last3_household_share"]
     stdout.print(

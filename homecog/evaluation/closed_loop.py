@@ -14,8 +14,9 @@ The closed loop (:func:`closed_loop`) lets both live ``days`` simulated days in 
 routine moves the user, typical-year weather the readings; the routine's own device switches
 are the household's, so they are left out) and counts, per day, the robot's switches, those the
 household switched back within the undo window, the household's own switches and the fights —
-the robot switching a device again that the household switched, in the same situation. Both
-counts are the household's own, not the robot's bookkeeping.
+the robot switching a device again that the household switched, in the same situation; and, in
+all, what went wrong per device and per service (:mod:`homecog.evaluation.closed_loop_faults`).
+Both counts are the household's own, not the robot's bookkeeping.
 """
 
 from __future__ import annotations
@@ -27,6 +28,7 @@ from typing import Any
 
 from homecog.context import DeviceChange
 from homecog.context.simulated import DEFAULT_START, SimulatedHome
+from homecog.evaluation.closed_loop_faults import Faults, per_device, per_service
 from homecog.home.codec import Space
 from homecog.home.household import Household
 from homecog.home.model import Home
@@ -66,6 +68,7 @@ class SimulatedHousehold:
 
     def __post_init__(self) -> None:
         self.switches: list[dict[str, object]] = []  # every switch: day, time, device, state, by
+        self.faults = Faults()  # every switch by what it was, per device and state
         self._space = Space(self.truth)
         self._n = len(self.truth.features)
         self._since: dict[str, float] = {}  # device -> not as wanted since
@@ -125,6 +128,9 @@ class SimulatedHousehold:
         robot = self._robot.pop(device, None)
         if robot is not None and robot[0] != on and self.source.clock() - robot[1] <= self.undo_window:
             self.today.reversed += 1
+            self.faults.undone[(device, robot[0])] += 1
+        else:
+            self.faults.missed[(device, on)] += 1
 
     def _record(self, device: str, on: bool, by: str) -> None:
         time = self.source.now.strftime("%H:%M:%S")
@@ -137,11 +143,13 @@ class SimulatedHousehold:
         if self._mine == (change.device, change.on):
             return
         self.today.robot_switches += 1
+        self.faults.robot[(change.device, change.on)] += 1
         self._record(change.device, change.on, "robot")
         self._robot[change.device] = (change.on, change.at)
         ours = self._ours.get(change.device)
         if change.before is not None and ours is not None and ours[0] == situation(self.truth, change.before):
             self.today.fights += 1
+            self.faults.fights[(change.device, change.on)] += 1
 
 
 def closed_loop(
@@ -157,8 +165,8 @@ def closed_loop(
     progress: Callable[[str], Any] | None = None,
 ) -> dict[str, Any]:
     """The robot (learning in ``tree``, logging to ``store``) and a household of ``truth``'s
-    wishes live ``days`` days in ``home``; per day what each did (:class:`Day`), and the
-    robot's own view of it at the end."""
+    wishes live ``days`` days in ``home``; per day what each did (:class:`Day`), per device and
+    service what went wrong, and the robot's own view of it at the end."""
     from homecog.robot.assemble import Wiring, assemble
 
     source = SimulatedHome(home, start=start, seed=seed, routine_switches=False)  # ContextError: a bad start
@@ -186,6 +194,8 @@ def closed_loop(
         "truth": truth.name,
         "days": days_out,
         "summary": summary(days_out, people.switches),
+        "devices": per_device(home, people.faults),
+        "services": per_service(home, people.faults),
         "switches": people.switches,
         "robot": runtime.status(),
         "experiences": store.experience_count(),
