@@ -1,5 +1,5 @@
 """``eval --days`` says what went wrong, per device and per service, in its JSON, its text
-and its report."""
+and its report; and how far the days have come, as it lives them."""
 
 from __future__ import annotations
 
@@ -11,8 +11,11 @@ from pathlib import Path
 import pytest
 
 from homecog.cli.main import main
+from homecog.evaluation.closed_loop import closed_loop
 from homecog.evaluation.closed_loop_report import write_days_report
 from homecog.home import load_home
+from homecog.knowledge.pipeline import open_tree
+from homecog.knowledge.store import Store
 from homecog.robot.guidance import switch_services
 
 HOMES = Path(__file__).parent / "homes"
@@ -84,3 +87,17 @@ def test_the_text_and_the_report_name_what_went_wrong(lived, tmp_path, capsys):
     assert "by hand: the household's switches the robot should have made" in out
     rows = [line.split("│")[1:-1] for line in out.splitlines() if line.startswith("│ desk_lamp ")]
     assert [[c.strip() for c in row] for row in rows] == [["desk_lamp", "0", "0", "1", "0"]]
+
+
+def test_the_days_say_how_far_they_have_come():
+    home, truth = load_home(STUDIO), load_home(KIM)
+    said: list = []
+    store = Store.open("sqlite://", home)
+    try:
+        closed_loop(home, truth, store, open_tree(home, store), days=2, progress=said.append)
+    finally:
+        store.close()
+    assert len(said) == 48  # every simulated hour
+    assert [(m.done, m.total) for m in said[:2]] == [(0, 2880), (60, 2880)]
+    assert str(said[0]) == "day 1 of 2, 06:00"
+    assert str(said[24]).startswith("day 2 of 2, 06:00 (day 1: robot ")

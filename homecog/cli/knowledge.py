@@ -18,9 +18,9 @@ from homecog.cli.options import (
     OptionalContextOption,
     UserOption,
     check_readable,
-    status,
 )
 from homecog.cli.output import emit_json, stdout
+from homecog.cli.progress import CommandProgress
 from homecog.errors import UsageProblemError
 from homecog.home import Home, load_home
 
@@ -38,14 +38,14 @@ RejectOption = Annotated[
 
 
 @contextmanager
-def _knowledge(h: Home, db: str | None) -> Iterator[tuple[Any, Any]]:
+def _knowledge(h: Home, db: str | None, progress: CommandProgress) -> Iterator[tuple[Any, Any]]:
     """The home's store and its tree (built first if the database has none), closed after."""
     from homecog.knowledge.pipeline import open_tree
     from homecog.knowledge.store import Store
 
     store = Store.open(db, h)
     try:
-        yield store, open_tree(h, store, progress=status)
+        yield store, open_tree(h, store, progress=progress)
     finally:
         store.close()
 
@@ -63,7 +63,7 @@ def cognize(
     h = load_home(home)
     user = _member(h, user)
     point = parse_context(context, Space(h))
-    with _knowledge(h, db) as (_, tree):
+    with CommandProgress("cognize") as progress, _knowledge(h, db, progress) as (_, tree):
         result = tree.explain_one(point, user=user)
     if json:
         emit_json(result.as_dict())
@@ -135,7 +135,7 @@ def correct(
         c = Correction.change(user, point, add=adds, reject=rejects)
     else:
         c = Correction.whole(user, point, parse_services(want, h))  # type: ignore[arg-type]
-    with _knowledge(h, db) as (store, tree):
+    with CommandProgress("correct") as progress, _knowledge(h, db, progress) as (store, tree):
         outcome = core.correct(store, tree, c)
         experiences = store.experience_count()
     if json:
@@ -164,13 +164,16 @@ def _correct_events(
 ) -> None:
     """``correct --events``: the whole file checked, then learned in batches of transactions."""
     check_readable(events, "--events", "an event file")
-    from homecog.cli.output import progress_bar
     from homecog.knowledge.event_file import learn_corrections, read_corrections
 
     h = load_home(home)
-    corrections = read_corrections(events, h, _member(h, user))  # every row checked before the first write
-    with _knowledge(h, db) as (store, tree), progress_bar("learning corrections", len(corrections)) as bar:
-        result = learn_corrections(store, tree, corrections, batch=batch, progress=bar)
+    with CommandProgress("correct --events") as progress:
+        progress(f"reading {events.name}")
+        # every row checked before the first write
+        corrections = read_corrections(events, h, _member(h, user))
+        with _knowledge(h, db, progress) as (store, tree):
+            progress("learning corrections")
+            result = learn_corrections(store, tree, corrections, batch=batch, progress=progress.update)
     if json:
         emit_json(result.as_dict())
         return

@@ -31,7 +31,6 @@ __all__ = [
     "check_readable",
     "check_writable",
     "method_names",
-    "status",
 ]
 
 HomeOption = Annotated[str, typer.Option("--home", help="A built-in home name or the path of a YAML file.")]
@@ -161,13 +160,6 @@ def check_writable(
             pass
     except OSError as e:
         raise UsageProblemError(f"{option} {path}: cannot write there: {e.strerror}") from None
-
-
-def status(message: str) -> None:
-    from homecog.cli.output import stderr
-
-    if stderr.is_terminal:
-        stderr.print(message, style="dim")
 
 
 #: Every method of ``eval`` and ``replay``, the default.

@@ -22,9 +22,9 @@ Both counts are the household's own, not the robot's bookkeeping.
 from __future__ import annotations
 
 import time
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import asdict, dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from homecog.context import DeviceChange
 from homecog.context.simulated import DEFAULT_START, SimulatedHome
@@ -35,7 +35,11 @@ from homecog.home.model import Home
 from homecog.home.states import state_word
 from homecog.knowledge.ihdr import IHDRTree
 from homecog.knowledge.store import Store
+from homecog.progress import Counted, Progress
 from homecog.robot.holds import situation
+
+if TYPE_CHECKING:
+    from homecog.robot.runtime import Runtime
 
 #: how long a device stays other than the household wants before a person switches it (s)
 DELAY = 120.0
@@ -162,7 +166,7 @@ def closed_loop(
     household: Household | None = None,
     start: str = DEFAULT_START,
     seed: int = 0,
-    progress: Callable[[str], Any] | None = None,
+    progress: Progress | None = None,
 ) -> dict[str, Any]:
     """The robot (learning in ``tree``, logging to ``store``) and a household of ``truth``'s
     wishes live ``days`` days in ``home``; per day what each did (:class:`Day`), per device and
@@ -176,18 +180,10 @@ def closed_loop(
     assert people is not None  # the wiring's truth lives in the home
     out: list[Day] = []
     began = time.perf_counter()
-    ticks = round(86400 / STEP)
     for day in range(1, days + 1):
         people.today = Day(day)
-        for _ in range(ticks):
-            runtime.tick(STEP)
+        _live_day(runtime, source, day, days, out[-1] if out else None, progress)
         out.append(people.today)
-        if progress is not None:
-            d = people.today
-            progress(
-                f"day {day}: robot {d.robot_switches} switches ({d.reversed} undone), "
-                f"household {d.household_switches}, fights {d.fights}"
-            )
     days_out = [asdict(d) for d in out]
     return {
         "home": home.name,
@@ -201,6 +197,26 @@ def closed_loop(
         "experiences": store.experience_count(),
         "seconds": round(time.perf_counter() - began, 2),
     }
+
+
+def _live_day(
+    runtime: Runtime, source: SimulatedHome, day: int, days: int, last: Day | None, progress: Progress | None
+) -> None:
+    """One simulated day of the closed loop, its progress said every simulated hour."""
+    ticks = round(86400 / STEP)
+    hourly = max(1, round(3600 / STEP))
+    before = (
+        ""
+        if last is None
+        else f" (day {last.day}: robot {last.robot_switches} switches, {last.reversed} undone; "
+        f"household {last.household_switches}; {last.fights} fights)"
+    )
+    for tick in range(ticks):
+        if progress is not None and tick % hourly == 0:
+            done = (day - 1) * ticks + tick
+            clock = source.now.strftime("%H:%M")
+            progress(Counted(f"day {day} of {days}, {clock}{before}", done, days * ticks))
+        runtime.tick(STEP)
 
 
 def summary(days: list[dict[str, Any]], switches: Sequence[Mapping[str, Any]] = ()) -> dict[str, Any]:
