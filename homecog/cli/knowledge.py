@@ -10,8 +10,8 @@ from typing import Annotated, Any
 
 import typer
 
+from homecog.cli.context_args import AtOption, DoingOption, PairsArgument, WhereOption, given_context
 from homecog.cli.options import (
-    ContextOption,
     DbOption,
     HomeOption,
     JsonOption,
@@ -51,23 +51,28 @@ def _knowledge(h: Home, db: str | None, progress: CommandProgress) -> Iterator[t
 
 
 def cognize(
-    context: ContextOption,
+    pairs: PairsArgument = None,
+    context: OptionalContextOption = None,
+    at: AtOption = None,
+    where: WhereOption = None,
+    doing: DoingOption = None,
     home: HomeOption = "paper",
     user: UserOption = None,
     db: DbOption = None,
     json: JsonOption = False,
 ) -> None:
     """The services the user needs in a context, in priority order, and why."""
-    from homecog.home.codec import Space, parse_context
-
     h = load_home(home)
     user = _member(h, user)
-    point = parse_context(context, Space(h))
+    given = given_context(h, context, at, where, doing, pairs)
+    assert given is not None  # required
     with CommandProgress("cognize") as progress, _knowledge(h, db, progress) as (_, tree):
-        result = tree.explain_one(point, user=user)
+        result = tree.explain_one(given.point, user=user)
     if json:
         emit_json(result.as_dict())
         return
+    if given.assumed:
+        stdout.print(f"assumed: {_assumed(h, given.assumed)}", style="dim", markup=False)
     if result.unknown:
         stdout.print("unknown context: no experience answers it; tell the robot with homecog correct")
         return
@@ -86,7 +91,11 @@ def cognize(
 
 
 def correct(
+    pairs: PairsArgument = None,
     context: OptionalContextOption = None,
+    at: AtOption = None,
+    where: WhereOption = None,
+    doing: DoingOption = None,
     want: WantOption = None,
     add: AddOption = None,
     reject: RejectOption = None,
@@ -106,25 +115,29 @@ def correct(
 ) -> None:
     """Tell the robot which services the user wants in a context, or learn an event file; it
     learns at once."""
-    from homecog.home.codec import Space, parse_context, parse_services
+    from homecog.home.codec import parse_services
     from homecog.knowledge import core
     from homecog.knowledge.correction import Correction
 
     partial = add is not None or reject is not None
+    short = pairs or at is not None or where is not None or doing is not None
     if events is not None:
-        if context is not None or want is not None or partial:
+        if context is not None or short or want is not None or partial:
             raise UsageProblemError(
-                "--events learns a file: give it without --context, --want, --add, --reject"
+                "--events learns a file: give it without a context, --want, --add or --reject"
             )
         _correct_events(events, home=home, user=user, db=db, batch=batch, json=json)
         return
-    if context is None or (want is None) == (not partial):
+    if (context is None and not short) or (want is None) == (not partial):
         raise UsageProblemError(
-            "give --context and --want (the whole set) or --add/--reject, or --events FILE"
+            "give a context (--context, or --at, --where, --doing, NAME=VALUE) and --want (the whole "
+            "set) or --add/--reject, or --events FILE"
         )
     h = load_home(home)
     user = _member(h, user)
-    point = parse_context(context, Space(h))
+    given = given_context(h, context, at, where, doing, pairs)
+    assert given is not None  # given, checked above
+    point = given.point
     if partial:
         adds, rejects = parse_services(add or "", h), parse_services(reject or "", h)
         both = sorted(set(adds) & set(rejects))
@@ -148,6 +161,17 @@ def correct(
         f"{'the robot ' + ' and '.join(changed) if changed else 'the robot already answered so'} "
         f"({experiences:,} experiences)"
     )
+
+
+def _assumed(h: Home, names: tuple[str, ...]) -> str:
+    """What a short context left out, as filled in: ``temperature, posture unknown; every
+    other device off``."""
+    features = [n for n in names if n in h.feature_names]
+    devices = [n for n in names if n in h.device_names]
+    said = [f"{', '.join(features)} unknown"] if features else []
+    if devices:
+        said.append("every device off" if len(devices) == len(h.devices) else "every other device off")
+    return "; ".join(said)
 
 
 def _member(h: Home, user: str | None) -> str:
