@@ -49,7 +49,10 @@ def test_off_a_terminal_a_line_every_few_seconds_and_none_for_a_short_command():
 
 def test_on_a_terminal_a_live_bar_that_is_gone_at_the_end():
     stream = io.StringIO()
-    with CommandProgress("correct --events", stream=stream, terminal=True) as progress:
+    with CommandProgress("cognize", stream=stream, terminal=True) as progress:
+        progress("reading the tree")  # a quick command: no bar flashes
+    assert stream.getvalue() == ""
+    with CommandProgress("correct --events", stream=stream, terminal=True, bar_after=0) as progress:
         progress("learning corrections")
         progress.update(30, 120)
         time.sleep(0.3)  # rich draws it ten times a second

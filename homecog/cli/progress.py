@@ -1,7 +1,8 @@
 """A long command's progress on stderr, the same for every command.
 
-On a terminal, a live bar (rich): what is being done, how much of how much where that is known
-(a pulsing bar where it is not), and the time elapsed; it is gone when the command ends. Where
+On a terminal, a live bar (rich), once the command has run a second: what is being done, how
+much of how much where that is known (a pulsing bar where it is not), and the time elapsed; it
+is gone when the command ends. Where
 stderr is no terminal (a file, a pipe, a CI log), a line every few seconds once the command has
 run that long, so a short command prints nothing and a long one shows it is alive::
 
@@ -30,6 +31,8 @@ from homecog.progress import Counted
 SECONDS_VARIABLE = "HOMECOG_PROGRESS_SECONDS"
 #: seconds between lines off a terminal, by default
 SECONDS = 5.0
+#: seconds a command runs before its bar appears on a terminal (none flashes for a quick one)
+BAR_AFTER = 1.0
 
 
 def line_seconds() -> float:
@@ -64,7 +67,7 @@ class CommandProgress:
 
     ``stream`` is where it writes (default: stderr when entered); ``terminal`` whether that is a
     terminal (default: as the stream says); ``seconds`` between lines off a terminal (default:
-    :func:`line_seconds`).
+    :func:`line_seconds`); ``bar_after`` the seconds before the bar appears on a terminal.
     """
 
     def __init__(
@@ -74,11 +77,13 @@ class CommandProgress:
         stream: TextIO | None = None,
         terminal: bool | None = None,
         seconds: float | None = None,
+        bar_after: float = BAR_AFTER,
     ) -> None:
         self.what = what
         self.stream = stream
         self.terminal = terminal
         self.seconds = seconds
+        self.bar_after = bar_after
         self._message: str = ""
         self._counts: tuple[int, int] | None = None
         self._lock = threading.Lock()
@@ -128,13 +133,12 @@ class CommandProgress:
         stream = self._stream = self.stream if self.stream is not None else sys.stderr
         terminal = self.terminal if self.terminal is not None else _is_terminal(stream)
         if terminal:
-            self._bar = _bar(stream)
-            self._bar.start()
-            self._task = self._bar.add_task(self.what, total=None, counts="")
-            return self
-        seconds = self.seconds if self.seconds is not None else line_seconds()
-        if seconds > 0:
-            self._thread = threading.Thread(target=self._lines, args=(stream, seconds), daemon=True)
+            self._thread = threading.Thread(target=self._show_bar, args=(stream,), daemon=True)
+        else:
+            seconds = self.seconds if self.seconds is not None else line_seconds()
+            if seconds > 0:
+                self._thread = threading.Thread(target=self._lines, args=(stream, seconds), daemon=True)
+        if self._thread is not None:
             self._thread.start()
         return self
 
@@ -146,6 +150,16 @@ class CommandProgress:
             self._thread.join()
         if self._bar is not None:
             self._bar.stop()
+
+    def _show_bar(self, stream: TextIO) -> None:
+        """On a terminal: the bar, once the command has run ``bar_after`` seconds."""
+        if self._stop.wait(self.bar_after):
+            return
+        bar = _bar(stream)
+        bar.start()
+        self._task = bar.add_task(self.what, total=None, counts="")
+        self._bar = bar
+        self._draw()
 
     def _lines(self, stream: TextIO, seconds: float) -> None:
         """Off a terminal: a line every ``seconds``, until the command ends."""
