@@ -65,15 +65,26 @@ def given_context(
     where: str | None = None,
     doing: str | None = None,
     pairs: Sequence[str] | None = None,
-    *,
-    required: bool = True,
+) -> GivenContext:
+    """The context of ``--context`` and the short way; a usage error where neither is given."""
+    given = optional_context(home, context, at, where, doing, pairs)
+    if given is None:
+        raise UsageProblemError(f"no context: {_HOW}")
+    return given
+
+
+def optional_context(
+    home: Home,
+    context: str | None,
+    at: str | None = None,
+    where: str | None = None,
+    doing: str | None = None,
+    pairs: Sequence[str] | None = None,
 ) -> GivenContext | None:
-    """The context of ``--context`` and the short way (None: neither given and not ``required``)."""
+    """The context of ``--context`` and the short way, or None where neither is given."""
     space = Space(home)
     short = _short_values(home, space, at=at, where=where, doing=doing, pairs=pairs or ())
     if context is None and not short:
-        if required:
-            raise UsageProblemError(f"no context: {_HOW}")
         return None
     if context is not None:
         values = space.context(parse_context(context, space))

@@ -12,10 +12,10 @@ import typer
 
 from homecog.cli.context_args import AtOption, DoingOption, PairsArgument, WhereOption, given_context
 from homecog.cli.options import (
+    ContextOption,
     DbOption,
     HomeOption,
     JsonOption,
-    OptionalContextOption,
     UserOption,
     check_readable,
 )
@@ -52,7 +52,7 @@ def _knowledge(h: Home, db: str | None, progress: CommandProgress) -> Iterator[t
 
 def cognize(
     pairs: PairsArgument = None,
-    context: OptionalContextOption = None,
+    context: ContextOption = None,
     at: AtOption = None,
     where: WhereOption = None,
     doing: DoingOption = None,
@@ -65,7 +65,6 @@ def cognize(
     h = load_home(home)
     user = _member(h, user)
     given = given_context(h, context, at, where, doing, pairs)
-    assert given is not None  # required
     with CommandProgress("cognize") as progress, _knowledge(h, db, progress) as (_, tree):
         result = tree.explain_one(given.point, user=user)
     if json:
@@ -92,7 +91,7 @@ def cognize(
 
 def correct(
     pairs: PairsArgument = None,
-    context: OptionalContextOption = None,
+    context: ContextOption = None,
     at: AtOption = None,
     where: WhereOption = None,
     doing: DoingOption = None,
@@ -135,9 +134,7 @@ def correct(
         )
     h = load_home(home)
     user = _member(h, user)
-    given = given_context(h, context, at, where, doing, pairs)
-    assert given is not None  # given, checked above
-    point = given.point
+    point = given_context(h, context, at, where, doing, pairs).point
     if partial:
         adds, rejects = parse_services(add or "", h), parse_services(reject or "", h)
         both = sorted(set(adds) & set(rejects))

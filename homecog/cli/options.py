@@ -23,7 +23,6 @@ __all__ = [
     "HomeOption",
     "JsonOption",
     "MethodsOption",
-    "OptionalContextOption",
     "TokenOption",
     "UserOption",
     "check_conversion",
@@ -42,9 +41,8 @@ DbOption = Annotated[
     ),
 ]
 _CONTEXT_HELP = "name=value for every feature and device, comma-separated."
-ContextOption = Annotated[str, typer.Option("--context", help=_CONTEXT_HELP)]
-#: ``--context`` where a command can do without one.
-OptionalContextOption = Annotated[str | None, typer.Option("--context", help=_CONTEXT_HELP)]
+#: ``--context``, optional: the short way (:mod:`homecog.cli.context_args`) may give it instead
+ContextOption = Annotated[str | None, typer.Option("--context", help=_CONTEXT_HELP)]
 
 
 def _user(value: str | None) -> str | None:

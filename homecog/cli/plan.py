@@ -14,7 +14,7 @@ from homecog.cli.context_args import (
     GivenContext,
     PairsArgument,
     WhereOption,
-    given_context,
+    optional_context,
 )
 from homecog.cli.options import (
     HomeOption,
@@ -75,7 +75,7 @@ def plan(
 ) -> None:
     """Decompose services into robot actions (HTN), in the given order, with the task tree."""
     h = load_home(home)
-    given = given_context(h, context, at, where, doing, pairs, required=False)
+    given = optional_context(h, context, at, where, doing, pairs)
     result = _plan(h, services, given)
     if json:
         emit_json({"actions": [list(a) for a in result.actions], "tree": [n.as_dict() for n in result.tree]})
@@ -109,7 +109,7 @@ def simulate(
     from homecog.simulation.bodies import carry_out, make_body
 
     h = load_home(home)
-    given = given_context(h, context, at, where, doing, pairs, required=False)
+    given = optional_context(h, context, at, where, doing, pairs)
     if png is not None:
         check_writable(png, "--png", inputs={"--home": home})
     if bag is not None:
