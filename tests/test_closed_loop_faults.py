@@ -11,6 +11,7 @@ from pathlib import Path
 import pytest
 
 from homecog.cli.main import main
+from homecog.cli.render import faults_tables
 from homecog.evaluation.closed_loop import closed_loop
 from homecog.evaluation.closed_loop_report import write_days_report
 from homecog.home import load_home
@@ -101,3 +102,15 @@ def test_the_days_say_how_far_they_have_come():
     assert [(m.done, m.total) for m in said[:2]] == [(0, 2880), (60, 2880)]
     assert str(said[0]) == "day 1 of 2, 06:00"
     assert str(said[24]).startswith("day 2 of 2, 06:00 (day 1: robot ")
+
+
+def test_where_nothing_went_wrong_no_table_is_drawn(lived):
+    quiet = {
+        key: {name: dict.fromkeys(row, 0) for name, row in lived[key].items()}
+        for key in ("devices", "services")
+    }
+    assert faults_tables(quiet) == []
+    assert [t.title for t in faults_tables(lived)] == [
+        "What went wrong, per device",
+        "What went wrong, per service",
+    ]

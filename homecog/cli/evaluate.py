@@ -189,8 +189,11 @@ def _closed_loop(
         emit_json(result)
         return
     stdout.print(days_table(result))
-    for table in faults_tables(result):
+    tables = faults_tables(result)
+    for table in tables:
         stdout.print(table)
+    if not tables:
+        stdout.print("nothing went wrong: no switch of the robot's undone, none made by hand instead")
     s = result["summary"]
     share = s["last3_household_share"]
     stdout.print(
