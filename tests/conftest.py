@@ -42,8 +42,11 @@ def _paper_q_table_once(tmp_path_factory: pytest.TempPathFactory) -> None:
 
 @pytest.fixture(autouse=True)
 def _private_data_dir(tmp_path_factory: pytest.TempPathFactory, monkeypatch: pytest.MonkeyPatch) -> None:
-    """Never write into the user's data directory."""
+    """Never write into the user's data directory; and no progress lines on stderr, which come
+    by the clock (a busy machine would add them to what a test reads there): the tests of
+    progress turn them on."""
     monkeypatch.setenv("HOMECOG_DATA", str(tmp_path_factory.getbasetemp() / "data"))
+    monkeypatch.setenv("HOMECOG_PROGRESS_SECONDS", "0")
 
 
 @pytest.fixture(scope="session")

@@ -263,7 +263,8 @@ def test_correct_add_and_reject_keep_the_other_services(built, capsys, tmp_path)
     for args, message in [
         (
             ["--want", "LampOn", "--add", "RadioOn"],
-            "give --context and --want (the whole set) or --add/--reject, or --events FILE",
+            "give a context (--context, or --at, --where, --doing, NAME=VALUE) and --want (the whole set) "
+            "or --add/--reject, or --events FILE",
         ),
         (["--add", "RadioOn", "--reject", "RadioOn"], "--add and --reject both name RadioOn"),
         (["--add", ""], "--add and --reject name no service"),

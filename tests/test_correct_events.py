@@ -140,11 +140,12 @@ def test_a_refused_file_teaches_nothing(db, tmp_path, capsys, header, rows, mess
     [
         (
             ["--events", "e.csv", "--want", "LampOn"],
-            "--events learns a file: give it without --context, --want, --add, --reject",
+            "--events learns a file: give it without a context, --want, --add or --reject",
         ),
         (
             ["--want", "LampOn"],
-            "give --context and --want (the whole set) or --add/--reject, or --events FILE",
+            "give a context (--context, or --at, --where, --doing, NAME=VALUE) and --want (the whole set) "
+            "or --add/--reject, or --events FILE",
         ),
         (["--events", "missing.csv"], "--events missing.csv: no such file"),
     ],

@@ -213,7 +213,7 @@ def test_an_undocumented_key_would_be_found():
 # -- the command reference ----------------------------------------------------------------------
 def commands() -> dict[str, list[str]]:
     """Every command of ``homecog`` (``homecog home check``) and its parameters as written on the
-    command line (``--json``, ``FILE``), from the application itself."""
+    command line (``--json``, ``FILE``, ``NAME=VALUE``), from the application itself."""
     import typer
 
     from homecog.cli.main import app
@@ -227,7 +227,8 @@ def commands() -> dict[str, list[str]]:
                 walk(sub, [*path, name])
             return
         out[" ".join(path)] = [
-            p.opts[0] if p.param_type_name == "option" else p.name.upper() for p in command.params
+            p.opts[0] if p.param_type_name == "option" else (p.metavar or p.name.upper())
+            for p in command.params
         ]
 
     walk(typer.main.get_command(app), ["homecog"])

@@ -159,7 +159,8 @@ def test_eval_json_and_learning_curve(tmp_path, capsys):
     report = tmp_path / "rep" / "report.md"
     assert data["report"] == str(report)
     text = report.read_text()
-    assert "| multi |" in text and "Sarsa+IHDR (paper), Table 9" in text and "![curve](curve.png)" in text
+    assert "| multi |" in text and "![curve](curve.png)" in text
+    assert "Table 9" not in text and "paper_table9" not in data  # the paper measured its own home
     k = versus["kmeans"]
     assert f"| {k['difference']:+.3f} [{k['low']:+.3f}, {k['high']:+.3f}] |" in text
     for png in ("methods.png", "per_service.png", "curve.png"):
@@ -190,3 +191,25 @@ def test_eval_bad_input(capsys, args, message):
     assert code == 2
     assert out == ""
     assert err.count("\n") == 1 and message in err, err
+
+
+def test_the_papers_table_9_stands_beside_its_own_home_only(tmp_path, capsys):
+    """Its rows in the text, the JSON and the report with the built-in paper home measured
+    against its own rules; never with another home or another truth."""
+    base = ["eval", "--scenarios", "40", "--methods", "multi"]
+    assert main([*base, "--report", str(tmp_path), "--json"]) == 0
+    data = json.loads(capsys.readouterr().out)
+    assert data["paper_table9"] == {
+        "Kmeans (paper)": {"precision": 0.8866, "recall": 0.8457, "f1": 0.8657},
+        "Sarsa+IHDR (paper)": {"precision": 0.9821, "recall": 0.9026, "f1": 0.9407},
+    }
+    report = (tmp_path / "report.md").read_text()
+    assert "| Sarsa+IHDR (paper), Table 9 | 0.9821 | 0.9026 | 0.9407 |" in report
+    assert main(base) == 0
+    rows = [line for line in capsys.readouterr().out.splitlines() if "(paper)" in line]
+    assert [row.split("│")[1].strip() for row in rows] == ["Kmeans (paper)", "Sarsa+IHDR (paper)"]
+    assert "0.9821" in rows[1] and "0.9407" in rows[1]
+    for other in (["--truth", "paper_ann"], ["--home", STUDIO]):
+        assert main([*base, *other]) == 0
+        out = capsys.readouterr().out
+        assert "multi" in out and "(paper)" not in out and "0.9821" not in out

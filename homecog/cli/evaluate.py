@@ -20,10 +20,10 @@ from homecog.cli.options import (
     check_readable,
     check_writable,
     method_names,
-    status,
 )
 from homecog.cli.output import emit, emit_json, stdout
-from homecog.cli.render import days_table, eval_table, replay_table
+from homecog.cli.progress import CommandProgress
+from homecog.cli.render import days_table, eval_table, faults_tables, replay_table
 from homecog.errors import UsageProblemError
 from homecog.home import load_home
 
@@ -90,17 +90,18 @@ def eval_command(
     cases = _scenarios(scenarios)
     if report is not None:
         check_writable(report / "report.md", "--report", inputs={"--scenarios": scenarios, "--home": home})
-    result = run_eval(
-        h,
-        t,
-        scenarios=cases,
-        seed=seed,
-        methods=names,
-        corrections=corrections,
-        db=db,
-        joint=joint,
-        progress=status,
-    )
+    with CommandProgress("eval") as progress:
+        result = run_eval(
+            h,
+            t,
+            scenarios=cases,
+            seed=seed,
+            methods=names,
+            corrections=corrections,
+            db=db,
+            joint=joint,
+            progress=progress,
+        )
     _show_eval(result, report, json)
 
 
@@ -174,9 +175,10 @@ def _closed_loop(
         check_writable(report / "household.md", "--report", inputs={"--home": h.source})
     store = Store.open(db or "sqlite://", h)
     try:
-        tree = open_tree(h, store, progress=status)
-        when = {} if start is None else {"start": start}
-        result = closed_loop(h, t, store, tree, days=days, seed=seed, progress=status, **when)
+        with CommandProgress("eval --days") as progress:
+            tree = open_tree(h, store, progress=progress)
+            when = {} if start is None else {"start": start}
+            result = closed_loop(h, t, store, tree, days=days, seed=seed, progress=progress, **when)
     finally:
         store.close()
     if report is not None:
@@ -187,6 +189,11 @@ def _closed_loop(
         emit_json(result)
         return
     stdout.print(days_table(result))
+    tables = faults_tables(result)
+    for table in tables:
+        stdout.print(table)
+    if not tables:
+        stdout.print("nothing went wrong: no switch of the robot's undone, none made by hand instead")
     s = result["summary"]
     share = s["last3_household_share"]
     stdout.print(
@@ -233,9 +240,11 @@ def replay(
     if predictions is not None:
         check_not_input(predictions, "--predictions", {"--events": events, "--home": home})
         _check_file("--predictions", predictions)
-    result = run_replay(
-        h, events, methods=names, seed=seed, joint=joint, progress=status, predictions=predictions
-    )
+    with CommandProgress("replay") as progress:
+        progress(f"reading {events.name}")
+        result = run_replay(
+            h, events, methods=names, seed=seed, joint=joint, progress=progress, predictions=predictions
+        )
     data = result.as_dict()
     if report is not None:
         data["report"] = str(write_replay_report(data, report, f"{events.name} on {h.name}"))
@@ -279,7 +288,9 @@ def adapt_mit(
     from homecog.evaluation.mit import convert
 
     check_conversion(folder, out)
-    home_path, events_path, n = convert(folder, out, name)
+    with CommandProgress("adapt-mit") as progress:
+        progress(f"converting {folder.name}")
+        home_path, events_path, n = convert(folder, out, name)
     h = load_home(home_path)  # what it wrote must load
     data = {
         "home": str(home_path),

@@ -9,8 +9,10 @@ from typing import Annotated
 import typer
 
 from homecog.cli.options import HostOption, JsonOption, PortOption, TokenOption, server_settings, url_host
-from homecog.cli.output import emit_json, stderr_progress, stdout
+from homecog.cli.output import emit_json, stdout
+from homecog.cli.progress import CommandProgress
 from homecog.errors import UsageProblemError
+from homecog.progress import Counted
 
 FleetDb = Annotated[
     str | None,
@@ -40,8 +42,6 @@ def fleet_train(
 ) -> int:
     """Learn every home file of FOLDER into one database: training, samples and tree, as tasks
     on Ray; a home already learned for the same content is skipped, one that fails is reported."""
-    from rich.progress import TimeElapsedColumn
-
     from homecog.fleet.train import HomeResult, fleet_train, home_files
     from homecog.knowledge.database import redact
 
@@ -55,11 +55,14 @@ def fleet_train(
         else f"on Ray ({ray or f'local, {workers} CPUs'})"
     )
     serial = serial or (workers == 1 and ray is None)
-    with stderr_progress(TimeElapsedColumn(), quiet=json_out) as progress:
-        task = progress.add_task(f"learning {total} homes {how}", total=total)
+    with CommandProgress(f"fleet train, {how}") as progress:
+        done = 0
+        progress(Counted.of("homes learned", done, total))
 
         def report(r: HomeResult) -> None:
-            progress.advance(task)
+            nonlocal done
+            done += 1
+            progress(Counted.of("homes learned", done, total))
             if json_out:
                 return
             name = r.home or r.file
@@ -70,7 +73,7 @@ def fleet_train(
                 line = f"  {name}: skipped (learned already for this content)"
             else:
                 line = f"  {name}: failed: {r.error}"
-            progress.console.print(line, style="red" if r.status == "failed" else None, highlight=False)
+            progress.say(line, style="red" if r.status == "failed" else None)
 
         results, seconds = fleet_train(
             folder, url, address=ray, workers=workers, serial=serial, seed=seed, on_result=report

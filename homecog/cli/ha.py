@@ -14,6 +14,7 @@ from typing import Annotated
 import typer
 
 from homecog.cli.output import emit_json, stdout
+from homecog.cli.progress import CommandProgress
 from homecog.errors import HomeAssistantError
 from homecog.home import load_home
 
@@ -89,7 +90,9 @@ def history(
 
         (user,) = query(home_assistant, _token(ha_token), ["auth/current_user"])
         robots = (user["id"],)
-    result = read_history(h, recorder, out, exclude_users=robots, since=since, until=until, quiet=quiet)
+    with CommandProgress("ha history") as progress:
+        progress("reading the recorder")
+        result = read_history(h, recorder, out, exclude_users=robots, since=since, until=until, quiet=quiet)
     data = result.as_dict()
     data["homecog_user"] = robots[0] if robots else None
     if json:

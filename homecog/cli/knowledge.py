@@ -10,17 +10,17 @@ from typing import Annotated, Any
 
 import typer
 
+from homecog.cli.context_args import AtOption, DoingOption, PairsArgument, WhereOption, given_context
 from homecog.cli.options import (
     ContextOption,
     DbOption,
     HomeOption,
     JsonOption,
-    OptionalContextOption,
     UserOption,
     check_readable,
-    status,
 )
 from homecog.cli.output import emit_json, stdout
+from homecog.cli.progress import CommandProgress
 from homecog.errors import UsageProblemError
 from homecog.home import Home, load_home
 
@@ -38,36 +38,40 @@ RejectOption = Annotated[
 
 
 @contextmanager
-def _knowledge(h: Home, db: str | None) -> Iterator[tuple[Any, Any]]:
+def _knowledge(h: Home, db: str | None, progress: CommandProgress) -> Iterator[tuple[Any, Any]]:
     """The home's store and its tree (built first if the database has none), closed after."""
     from homecog.knowledge.pipeline import open_tree
     from homecog.knowledge.store import Store
 
     store = Store.open(db, h)
     try:
-        yield store, open_tree(h, store, progress=status)
+        yield store, open_tree(h, store, progress=progress)
     finally:
         store.close()
 
 
 def cognize(
-    context: ContextOption,
+    pairs: PairsArgument = None,
+    context: ContextOption = None,
+    at: AtOption = None,
+    where: WhereOption = None,
+    doing: DoingOption = None,
     home: HomeOption = "paper",
     user: UserOption = None,
     db: DbOption = None,
     json: JsonOption = False,
 ) -> None:
     """The services the user needs in a context, in priority order, and why."""
-    from homecog.home.codec import Space, parse_context
-
     h = load_home(home)
     user = _member(h, user)
-    point = parse_context(context, Space(h))
-    with _knowledge(h, db) as (_, tree):
-        result = tree.explain_one(point, user=user)
+    given = given_context(h, context, at, where, doing, pairs)
+    with CommandProgress("cognize") as progress, _knowledge(h, db, progress) as (_, tree):
+        result = tree.explain_one(given.point, user=user)
     if json:
         emit_json(result.as_dict())
         return
+    if given.assumed:
+        stdout.print(f"assumed: {_assumed(h, given.assumed)}", style="dim", markup=False)
     if result.unknown:
         stdout.print("unknown context: no experience answers it; tell the robot with homecog correct")
         return
@@ -86,7 +90,11 @@ def cognize(
 
 
 def correct(
-    context: OptionalContextOption = None,
+    pairs: PairsArgument = None,
+    context: ContextOption = None,
+    at: AtOption = None,
+    where: WhereOption = None,
+    doing: DoingOption = None,
     want: WantOption = None,
     add: AddOption = None,
     reject: RejectOption = None,
@@ -106,25 +114,27 @@ def correct(
 ) -> None:
     """Tell the robot which services the user wants in a context, or learn an event file; it
     learns at once."""
-    from homecog.home.codec import Space, parse_context, parse_services
+    from homecog.home.codec import parse_services
     from homecog.knowledge import core
     from homecog.knowledge.correction import Correction
 
     partial = add is not None or reject is not None
+    short = pairs or at is not None or where is not None or doing is not None
     if events is not None:
-        if context is not None or want is not None or partial:
+        if context is not None or short or want is not None or partial:
             raise UsageProblemError(
-                "--events learns a file: give it without --context, --want, --add, --reject"
+                "--events learns a file: give it without a context, --want, --add or --reject"
             )
         _correct_events(events, home=home, user=user, db=db, batch=batch, json=json)
         return
-    if context is None or (want is None) == (not partial):
+    if (context is None and not short) or (want is None) == (not partial):
         raise UsageProblemError(
-            "give --context and --want (the whole set) or --add/--reject, or --events FILE"
+            "give a context (--context, or --at, --where, --doing, NAME=VALUE) and --want (the whole "
+            "set) or --add/--reject, or --events FILE"
         )
     h = load_home(home)
     user = _member(h, user)
-    point = parse_context(context, Space(h))
+    point = given_context(h, context, at, where, doing, pairs).point
     if partial:
         adds, rejects = parse_services(add or "", h), parse_services(reject or "", h)
         both = sorted(set(adds) & set(rejects))
@@ -135,7 +145,7 @@ def correct(
         c = Correction.change(user, point, add=adds, reject=rejects)
     else:
         c = Correction.whole(user, point, parse_services(want, h))  # type: ignore[arg-type]
-    with _knowledge(h, db) as (store, tree):
+    with CommandProgress("correct") as progress, _knowledge(h, db, progress) as (store, tree):
         outcome = core.correct(store, tree, c)
         experiences = store.experience_count()
     if json:
@@ -148,6 +158,17 @@ def correct(
         f"{'the robot ' + ' and '.join(changed) if changed else 'the robot already answered so'} "
         f"({experiences:,} experiences)"
     )
+
+
+def _assumed(h: Home, names: tuple[str, ...]) -> str:
+    """What a short context left out, as filled in: ``temperature, posture unknown; every
+    other device off``."""
+    features = [n for n in names if n in h.feature_names]
+    devices = [n for n in names if n in h.device_names]
+    said = [f"{', '.join(features)} unknown"] if features else []
+    if devices:
+        said.append("every device off" if len(devices) == len(h.devices) else "every other device off")
+    return "; ".join(said)
 
 
 def _member(h: Home, user: str | None) -> str:
@@ -164,13 +185,16 @@ def _correct_events(
 ) -> None:
     """``correct --events``: the whole file checked, then learned in batches of transactions."""
     check_readable(events, "--events", "an event file")
-    from homecog.cli.output import progress_bar
     from homecog.knowledge.event_file import learn_corrections, read_corrections
 
     h = load_home(home)
-    corrections = read_corrections(events, h, _member(h, user))  # every row checked before the first write
-    with _knowledge(h, db) as (store, tree), progress_bar("learning corrections", len(corrections)) as bar:
-        result = learn_corrections(store, tree, corrections, batch=batch, progress=bar)
+    with CommandProgress("correct --events") as progress:
+        progress(f"reading {events.name}")
+        # every row checked before the first write
+        corrections = read_corrections(events, h, _member(h, user))
+        with _knowledge(h, db, progress) as (store, tree):
+            progress("learning corrections")
+            result = learn_corrections(store, tree, corrections, batch=batch, progress=progress.update)
     if json:
         emit_json(result.as_dict())
         return

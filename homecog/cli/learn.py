@@ -16,9 +16,9 @@ from homecog.cli.options import (
     UsageProblemError,
     check_readable,
     check_writable,
-    status,
 )
-from homecog.cli.output import emit, emit_json, progress_bar, stdout
+from homecog.cli.output import emit, emit_json, stdout
+from homecog.cli.progress import CommandProgress
 from homecog.home import load_home
 from homecog.learning.size import big_number
 
@@ -80,8 +80,11 @@ def train(
     path = out if out is not None else q_table_path(h, joint=joint)
     check_writable(path, inputs={"--home": home}, private=True)
     starts = h.context_count << len(h.devices)
-    with progress_bar(f"Sarsa on {h.name}", config.episodes if joint else 1) as update:
-        result = train_policy(h, config, joint=joint, episodes=None if joint else episodes, progress=update)
+    with CommandProgress("train") as progress:
+        progress(f"Sarsa on {h.name}, {'episodes' if joint else 'start states'}")
+        result = train_policy(
+            h, config, joint=joint, episodes=None if joint else episodes, progress=progress.update
+        )
     result.policy.save(path)
     data = {
         "episodes": result.episodes,
@@ -135,7 +138,8 @@ def build(
         check_readable(q, "--q", "a Q table", limit=2**40)
     store = Store.open(db, h)
     try:
-        result = run_build(h, store, q_path=q, mode=mode.value, seed=seed, joint=joint, progress=status)
+        with CommandProgress("build") as progress:
+            result = run_build(h, store, q_path=q, mode=mode.value, seed=seed, joint=joint, progress=progress)
         counts = store.counts()
     finally:
         store.close()

@@ -14,6 +14,7 @@ import typer
 
 from homecog.cli.options import HomeOption, JsonOption, check_conversion, check_readable, check_writable
 from homecog.cli.output import emit_json, stdout
+from homecog.cli.progress import CommandProgress
 from homecog.evaluation.log_events import LogEvents
 from homecog.home import load_home
 
@@ -47,7 +48,9 @@ def events(
     h = load_home(home)
     check_readable(log, "--log", "a log file")
     check_writable(out, inputs={"--log": log, "--home": home})
-    result = convert_log(h, log, out, quiet=quiet, exclude_users=exclude_user or ())
+    with CommandProgress("log events") as progress:
+        progress(f"reading {log.name}")
+        result = convert_log(h, log, out, quiet=quiet, exclude_users=exclude_user or ())
     if json:
         emit_json(result.as_dict())
         return
@@ -86,7 +89,9 @@ def adapt_kasteren(
     from homecog.evaluation.kasteren import convert
 
     check_conversion(folder, out)
-    done = convert(folder, house, out, name)
+    with CommandProgress("adapt-kasteren") as progress:
+        progress(f"converting house {house}")
+        done = convert(folder, house, out, name)
     h = load_home(done.home)
     if json:
         emit_json(

@@ -23,7 +23,6 @@ __all__ = [
     "HomeOption",
     "JsonOption",
     "MethodsOption",
-    "OptionalContextOption",
     "TokenOption",
     "UserOption",
     "check_conversion",
@@ -31,7 +30,6 @@ __all__ = [
     "check_readable",
     "check_writable",
     "method_names",
-    "status",
 ]
 
 HomeOption = Annotated[str, typer.Option("--home", help="A built-in home name or the path of a YAML file.")]
@@ -43,9 +41,8 @@ DbOption = Annotated[
     ),
 ]
 _CONTEXT_HELP = "name=value for every feature and device, comma-separated."
-ContextOption = Annotated[str, typer.Option("--context", help=_CONTEXT_HELP)]
-#: ``--context`` where a command can do without one.
-OptionalContextOption = Annotated[str | None, typer.Option("--context", help=_CONTEXT_HELP)]
+#: ``--context``, optional: the short way (:mod:`homecog.cli.context_args`) may give it instead
+ContextOption = Annotated[str | None, typer.Option("--context", help=_CONTEXT_HELP)]
 
 
 def _user(value: str | None) -> str | None:
@@ -161,13 +158,6 @@ def check_writable(
             pass
     except OSError as e:
         raise UsageProblemError(f"{option} {path}: cannot write there: {e.strerror}") from None
-
-
-def status(message: str) -> None:
-    from homecog.cli.output import stderr
-
-    if stderr.is_terminal:
-        stderr.print(message, style="dim")
 
 
 #: Every method of ``eval`` and ``replay``, the default.

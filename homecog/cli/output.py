@@ -4,22 +4,11 @@ from __future__ import annotations
 
 import json
 import sys
-from collections.abc import Iterator
-from contextlib import contextmanager
 from typing import Any
 
 from rich.console import Console
-from rich.progress import (
-    BarColumn,
-    MofNCompleteColumn,
-    Progress,
-    ProgressColumn,
-    TextColumn,
-    TimeRemainingColumn,
-)
 
 stdout = Console(highlight=False, soft_wrap=True)
-stderr = Console(stderr=True, highlight=False)
 
 
 def emit_json(data: dict[str, Any]) -> None:
@@ -43,29 +32,3 @@ def emit(data: dict[str, Any], json: bool, *lines: str) -> None:
         return
     for line in lines:
         stdout.print(line)
-
-
-def stderr_progress(time_column: ProgressColumn, *, transient: bool = False, quiet: bool = False) -> Progress:
-    """Progress on stderr: what is done, a bar, how many of how many, then ``time_column``
-    (the time elapsed or the time remaining). Silent with ``quiet`` or when stderr is no terminal."""
-    return Progress(
-        TextColumn("{task.description}"),
-        BarColumn(),
-        MofNCompleteColumn(),
-        time_column,
-        console=stderr,
-        transient=transient,
-        disable=quiet or not stderr.is_terminal,
-    )
-
-
-@contextmanager
-def progress_bar(description: str, total: int) -> Iterator[Any]:
-    """A progress bar on stderr; yields ``update(done, total)``. Silent when stderr is no terminal."""
-    with stderr_progress(TimeRemainingColumn(), transient=True) as progress:
-        task = progress.add_task(description, total=total)
-
-        def update(done: int, total: int) -> None:
-            progress.update(task, completed=done, total=total)
-
-        yield update

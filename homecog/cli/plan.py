@@ -8,6 +8,14 @@ from typing import Annotated, Any
 
 import typer
 
+from homecog.cli.context_args import (
+    AtOption,
+    DoingOption,
+    GivenContext,
+    PairsArgument,
+    WhereOption,
+    optional_context,
+)
 from homecog.cli.options import (
     HomeOption,
     JsonOption,
@@ -41,17 +49,17 @@ PlanContextOption = Annotated[
 ]
 
 
-def _plan(h: Home, services: str, context: str | None) -> Any:
-    from homecog.home.codec import Space, parse_context
+def _plan(h: Home, services: str, given: GivenContext | None) -> Any:
+    """The plan of ``services`` in the context ``given`` (None: the layout's defaults)."""
+    from homecog.home.codec import Space
     from homecog.planning import plan_services
 
     names = [s.strip() for s in services.split(",") if s.strip()]
     if not names:
         raise UsageProblemError("--services: expected at least one service")
     values = None
-    if context is not None:
-        space = Space(h)
-        values = space.context(parse_context(context, space))
+    if given is not None:  # what a short context left out is left to the plan's defaults
+        values = {k: v for k, v in Space(h).context(given.point).items() if k not in given.assumed}
     return plan_services(h, names, context=values)
 
 
@@ -59,11 +67,16 @@ def plan(
     services: ServicesOption,
     home: HomeOption = "paper",
     context: PlanContextOption = None,
+    pairs: PairsArgument = None,
+    at: AtOption = None,
+    where: WhereOption = None,
+    doing: DoingOption = None,
     json: JsonOption = False,
 ) -> None:
     """Decompose services into robot actions (HTN), in the given order, with the task tree."""
     h = load_home(home)
-    result = _plan(h, services, context)
+    given = optional_context(h, context, at, where, doing, pairs)
+    result = _plan(h, services, given)
     if json:
         emit_json({"actions": [list(a) for a in result.actions], "tree": [n.as_dict() for n in result.tree]})
         return
@@ -75,6 +88,10 @@ def simulate(
     services: ServicesOption,
     home: HomeOption = "paper",
     context: PlanContextOption = None,
+    pairs: PairsArgument = None,
+    at: AtOption = None,
+    where: WhereOption = None,
+    doing: DoingOption = None,
     robot: RobotOption = "builtin",
     planner: PlannerOption = None,
     png: Annotated[Path | None, typer.Option("--png", help="Draw the trajectory into this PNG file.")] = None,
@@ -92,11 +109,12 @@ def simulate(
     from homecog.simulation.bodies import carry_out, make_body
 
     h = load_home(home)
+    given = optional_context(h, context, at, where, doing, pairs)
     if png is not None:
         check_writable(png, "--png", inputs={"--home": home})
     if bag is not None:
         check_bag_folder(bag)
-    result = _plan(h, services, context)
+    result = _plan(h, services, given)
     body = make_body(robot, h, result.start, planner=planner)
     acting, sim = carry_out(body, result)
     if not acting.achieved:

@@ -7,6 +7,7 @@ from typing import Any
 
 from rich.table import Table
 
+from homecog.evaluation.closed_loop_faults import worst
 from homecog.evaluation.report import PAPER_TABLE9, VERSUS
 from homecog.home import Home
 
@@ -66,7 +67,7 @@ def home_tables(h: Home) -> list[Table]:
 
 
 def eval_table(result: Any, home: str, truth: str) -> Table:
-    """Each method's micro figures beside the paper's Table 9."""
+    """Each method's micro figures, beside the paper's Table 9 on the paper's own home."""
     table = Table(title=f"{home}: {result.scenarios:,} scenarios, truth {truth}", title_justify="left")
     versus = result.versus()
     columns = ["method", "precision", "recall", "F1", "exact", "seconds"] + ([VERSUS] if versus else [])
@@ -76,7 +77,7 @@ def eval_table(result: Any, home: str, truth: str) -> Table:
         figures = (f"{m.micro[k]:.4f}" for k in ("precision", "recall", "f1", "exact"))
         against = [str(versus[name]) if name in versus else ""] if versus else []
         table.add_row(name, *figures, f"{m.seconds:.2f}", *against)
-    for name, (p, r, f) in PAPER_TABLE9.items():
+    for name, (p, r, f) in PAPER_TABLE9.items() if result.paper else ():
         table.add_row(
             name, f"{p / 100:.4f}", f"{r / 100:.4f}", f"{f / 100:.4f}", "", "", *([""] if versus else [])
         )
@@ -108,3 +109,46 @@ def days_table(result: dict[str, Any]) -> Table:
             *(str(d[k]) for k in ("day", "robot_switches", "reversed", "household_switches", "fights"))
         )
     return table
+
+
+#: the columns of what went wrong: per device, and per service (key, heading)
+DEVICE_FAULTS = (
+    ("robot_switches", "robot's"),
+    ("undone", "undone"),
+    ("missed", "by hand"),
+    ("fights", "fights"),
+)
+SERVICE_FAULTS = (("done", "done"), ("wrong", "wrong"), ("missed", "missed"), ("fights", "fights"))
+#: what the columns say, under each table
+FAULTS_NOTES = {
+    "device": "robot's: its switches; undone: of those, switched back by the household; "
+    "by hand: the household's switches the robot should have made",
+    "service": "done: by the robot; wrong: done and undone by the household; "
+    "missed: done by the household by hand instead",
+}
+
+
+def faults_tables(result: dict[str, Any]) -> list[Table]:
+    """What went wrong in the closed loop: the devices, then the services, with a switch undone,
+    missed or fought over, the most first (none where nothing went wrong)."""
+    tables = []
+    for key, first, columns, wrong in (
+        ("devices", "device", DEVICE_FAULTS, ("undone", "missed", "fights")),
+        ("services", "service", SERVICE_FAULTS, ("wrong", "missed", "fights")),
+    ):
+        rows = worst(result[key], wrong)
+        if not rows:
+            continue
+        table = Table(
+            title=f"What went wrong, per {first}",
+            title_justify="left",
+            caption=FAULTS_NOTES[first],
+            caption_justify="left",
+        )
+        table.add_column(first)
+        for _, heading in columns:
+            table.add_column(heading, justify="right")
+        for name, row in rows:
+            table.add_row(name, *(str(row[k]) for k, _ in columns))
+        tables.append(table)
+    return tables

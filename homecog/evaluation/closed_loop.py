@@ -14,26 +14,32 @@ The closed loop (:func:`closed_loop`) lets both live ``days`` simulated days in 
 routine moves the user, typical-year weather the readings; the routine's own device switches
 are the household's, so they are left out) and counts, per day, the robot's switches, those the
 household switched back within the undo window, the household's own switches and the fights —
-the robot switching a device again that the household switched, in the same situation. Both
-counts are the household's own, not the robot's bookkeeping.
+the robot switching a device again that the household switched, in the same situation; and, in
+all, what went wrong per device and per service (:mod:`homecog.evaluation.closed_loop_faults`).
+Both counts are the household's own, not the robot's bookkeeping.
 """
 
 from __future__ import annotations
 
 import time
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import asdict, dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from homecog.context import DeviceChange
 from homecog.context.simulated import DEFAULT_START, SimulatedHome
+from homecog.evaluation.closed_loop_faults import Faults, per_device, per_service
 from homecog.home.codec import Space
 from homecog.home.household import Household
 from homecog.home.model import Home
 from homecog.home.states import state_word
 from homecog.knowledge.ihdr import IHDRTree
 from homecog.knowledge.store import Store
+from homecog.progress import Counted, Progress
 from homecog.robot.holds import situation
+
+if TYPE_CHECKING:
+    from homecog.robot.runtime import Runtime
 
 #: how long a device stays other than the household wants before a person switches it (s)
 DELAY = 120.0
@@ -66,6 +72,7 @@ class SimulatedHousehold:
 
     def __post_init__(self) -> None:
         self.switches: list[dict[str, object]] = []  # every switch: day, time, device, state, by
+        self.faults = Faults()  # every switch by what it was, per device and state
         self._space = Space(self.truth)
         self._n = len(self.truth.features)
         self._since: dict[str, float] = {}  # device -> not as wanted since
@@ -125,6 +132,9 @@ class SimulatedHousehold:
         robot = self._robot.pop(device, None)
         if robot is not None and robot[0] != on and self.source.clock() - robot[1] <= self.undo_window:
             self.today.reversed += 1
+            self.faults.undone[(device, robot[0])] += 1
+        else:
+            self.faults.missed[(device, on)] += 1
 
     def _record(self, device: str, on: bool, by: str) -> None:
         time = self.source.now.strftime("%H:%M:%S")
@@ -137,11 +147,13 @@ class SimulatedHousehold:
         if self._mine == (change.device, change.on):
             return
         self.today.robot_switches += 1
+        self.faults.robot[(change.device, change.on)] += 1
         self._record(change.device, change.on, "robot")
         self._robot[change.device] = (change.on, change.at)
         ours = self._ours.get(change.device)
         if change.before is not None and ours is not None and ours[0] == situation(self.truth, change.before):
             self.today.fights += 1
+            self.faults.fights[(change.device, change.on)] += 1
 
 
 def closed_loop(
@@ -154,11 +166,11 @@ def closed_loop(
     household: Household | None = None,
     start: str = DEFAULT_START,
     seed: int = 0,
-    progress: Callable[[str], Any] | None = None,
+    progress: Progress | None = None,
 ) -> dict[str, Any]:
     """The robot (learning in ``tree``, logging to ``store``) and a household of ``truth``'s
-    wishes live ``days`` days in ``home``; per day what each did (:class:`Day`), and the
-    robot's own view of it at the end."""
+    wishes live ``days`` days in ``home``; per day what each did (:class:`Day`), per device and
+    service what went wrong, and the robot's own view of it at the end."""
     from homecog.robot.assemble import Wiring, assemble
 
     source = SimulatedHome(home, start=start, seed=seed, routine_switches=False)  # ContextError: a bad start
@@ -168,29 +180,43 @@ def closed_loop(
     assert people is not None  # the wiring's truth lives in the home
     out: list[Day] = []
     began = time.perf_counter()
-    ticks = round(86400 / STEP)
     for day in range(1, days + 1):
         people.today = Day(day)
-        for _ in range(ticks):
-            runtime.tick(STEP)
+        _live_day(runtime, source, day, days, out[-1] if out else None, progress)
         out.append(people.today)
-        if progress is not None:
-            d = people.today
-            progress(
-                f"day {day}: robot {d.robot_switches} switches ({d.reversed} undone), "
-                f"household {d.household_switches}, fights {d.fights}"
-            )
     days_out = [asdict(d) for d in out]
     return {
         "home": home.name,
         "truth": truth.name,
         "days": days_out,
         "summary": summary(days_out, people.switches),
+        "devices": per_device(home, people.faults),
+        "services": per_service(home, people.faults),
         "switches": people.switches,
         "robot": runtime.status(),
         "experiences": store.experience_count(),
         "seconds": round(time.perf_counter() - began, 2),
     }
+
+
+def _live_day(
+    runtime: Runtime, source: SimulatedHome, day: int, days: int, last: Day | None, progress: Progress | None
+) -> None:
+    """One simulated day of the closed loop, its progress said every simulated hour."""
+    ticks = round(86400 / STEP)
+    hourly = max(1, round(3600 / STEP))
+    before = (
+        ""
+        if last is None
+        else f" (day {last.day}: robot {last.robot_switches} switches, {last.reversed} undone; "
+        f"household {last.household_switches}; {last.fights} fights)"
+    )
+    for tick in range(ticks):
+        if progress is not None and tick % hourly == 0:
+            done = (day - 1) * ticks + tick
+            clock = source.now.strftime("%H:%M")
+            progress(Counted(f"day {day} of {days}, {clock}{before}", done, days * ticks))
+        runtime.tick(STEP)
 
 
 def summary(days: list[dict[str, Any]], switches: Sequence[Mapping[str, Any]] = ()) -> dict[str, Any]:

@@ -1,11 +1,13 @@
 """The closed loop's report (``homecog eval --days N --report DIR``): a chart of the robot's and
-the household's switches per day, and a Markdown table of the days."""
+the household's switches per day, a Markdown table of the days, and what went wrong per device
+and per service."""
 
 from __future__ import annotations
 
 from pathlib import Path
 from typing import Any
 
+from homecog.evaluation.closed_loop_faults import worst
 from homecog.evaluation.report import pyplot, save_chart
 
 COLUMNS = (
@@ -51,10 +53,51 @@ def write_days_report(result: dict[str, Any], folder: Path) -> Path:
         + (f"{share:.0%} a day of what it switched on day 1" if share is not None else "nothing on day 1")
         + f"; {s['last3_undone_share']:.1%} of the robot's switches were undone; {s['fights']} fights.",
         "",
+        *_faults(result),
     ]
     path = folder / "household.md"
     path.write_text("\n".join(lines), encoding="utf-8")
     return path
+
+
+#: what went wrong, per device and per service: (key, heading, columns as (key, heading))
+FAULTS = (
+    (
+        "devices",
+        "device",
+        (
+            ("robot_switches", "robot's switches"),
+            ("undone", "undone by the household"),
+            ("missed", "switched by hand instead"),
+            ("fights", "fights"),
+        ),
+    ),
+    (
+        "services",
+        "service",
+        (
+            ("done", "done by the robot"),
+            ("wrong", "wrong (undone)"),
+            ("missed", "missed (done by hand)"),
+            ("fights", "fights"),
+        ),
+    ),
+)
+
+
+def _faults(result: dict[str, Any]) -> list[str]:
+    """The Markdown tables of what went wrong, per device and per service, the most first."""
+    lines = []
+    for key, name, columns in FAULTS:
+        rows = worst(result[key], [k for k, _ in columns[1:]])
+        if not rows:
+            continue
+        lines += [f"## What went wrong, per {name}", ""]
+        lines += ["| " + " | ".join([name, *(h for _, h in columns)]) + " |"]
+        lines += ["|---|" + "---:|" * len(columns)]
+        lines += ["| " + " | ".join([n, *(str(row[k]) for k, _ in columns)]) + " |" for n, row in rows]
+        lines.append("")
+    return lines
 
 
 def _row(d: dict[str, Any]) -> str:

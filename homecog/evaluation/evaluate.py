@@ -29,6 +29,7 @@ from homecog.evaluation.leads import Difference, event_counts, leads
 from homecog.evaluation.learn import learn_methods
 from homecog.evaluation.methods import Method, TreeMethod
 from homecog.evaluation.registry import METHOD_NAMES
+from homecog.evaluation.report import is_paper_experiment, paper_table9
 from homecog.evaluation.scenarios import random_scenarios
 from homecog.home.content import is_compatible
 from homecog.home.model import Home
@@ -158,6 +159,8 @@ class EvalReport:
     home: str
     truth: str
     skipped: dict[str, str] = field(default_factory=dict)
+    # whether the paper's Table 9 stands beside these figures (its own home and rules)
+    paper: bool = False
     _versus: dict[str, Difference] | None = field(default=None, init=False, compare=False, repr=False)
 
     def versus(self) -> dict[str, Difference]:
@@ -182,6 +185,8 @@ class EvalReport:
             out["skipped"] = self.skipped
         if self.curve is not None:
             out["curve"] = self.curve
+        if self.paper:
+            out["paper_table9"] = paper_table9()
         return out
 
 
@@ -240,4 +245,5 @@ def run(
         seconds=time.perf_counter() - start,
         home=home.name,
         truth=truth.name,
+        paper=is_paper_experiment(home, truth),
     )

@@ -21,7 +21,7 @@ from __future__ import annotations
 import json
 import time
 from array import array
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -41,11 +41,11 @@ from homecog.home.recent import RecentPast
 from homecog.home.scenario_file import Scenario, load_scenarios
 from homecog.knowledge.pipeline import ensure_policy
 from homecog.learning.size import check_size
+from homecog.progress import Counted, Progress
 
-Progress = Callable[[str], None]
 USER = "household"
 #: progress is reported every 1,000 events, and at least this often on a slow stream (a large home)
-PROGRESS_SECONDS = 10.0
+PROGRESS_SECONDS = 2.0
 
 
 @dataclass
@@ -216,7 +216,7 @@ def replay_rows(
             if sink is not None:
                 sink.write(prediction_line(i, row, answers, home.service_names))
             if progress and (i % 1000 == 0 or time.perf_counter() - said >= PROGRESS_SECONDS):
-                progress(f"{i:,} of {len(rows):,} events")
+                progress(Counted.of("events", i, len(rows)))
                 said = time.perf_counter()
     return ReplayResult(
         events=len(rows),
