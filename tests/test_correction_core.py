@@ -382,3 +382,46 @@ def test_a_user_s_layer_is_learned_off_the_robot_s_lock_and_other_users_never_wa
     kim.join(10)
     assert runtime.tree.ready("kim") and answers["kim"] == before
     store.close()
+
+
+def _learned_again(tree) -> list[int]:
+    """The numbers of the corrections a tree's layers learn from now on (watched, not changed)."""
+    learned: list[int] = []
+    real = tree.layers._learn
+    tree.layers._learn = lambda user, example, ident: (learned.append(ident), real(user, example, ident))
+    return learned
+
+
+def test_a_user_s_layer_is_kept_and_a_restart_learns_only_the_corrections_after_it(stored, tmp_path, caplog):
+    """What a user's layer learned is kept on disk: after a restart it starts from there and
+    learns the corrections made since; it answers as a layer learned from the first would.
+    Another build's snapshot, or a damaged one, is not used."""
+    home, _ = stored
+    url = _copy(stored, tmp_path)
+    store = Store.open(url, home)
+    tree = store.load_tree()
+    point = tree.space.point({k: str(v) for k, v in WORK.items()})
+    for want in (["RadioOff"], ["RadioOff", "LampOn"], ["LampOn"]):
+        core.correct(store, tree, Correction.whole("kim", point, want))
+    tree.layers.keep("kim")
+    (kept,) = tree.layers.snapshots.folder.iterdir()
+    assert kept.stat().st_mode & 0o777 == 0o600
+    core.correct(store, tree, Correction.change("kim", point, reject=["LampOn"]))
+    expected = tree.predict_one(point, "kim")
+    store.close()
+
+    store = Store.open(url, home)  # a restart
+    tree = store.load_tree()
+    learned = _learned_again(tree)
+    assert tree.predict_one(point, "kim") == expected and learned == [4]  # the 4th alone
+
+    without = store.load_tree()
+    without.layers.snapshots = None
+    assert without.predict_one(point, "kim") == expected  # as learned from the first
+
+    kept.write_bytes(b"not a snapshot")
+    tree = store.load_tree()
+    learned = _learned_again(tree)
+    assert tree.predict_one(point, "kim") == expected and learned == [1, 2, 3, 4]
+    assert "is not used" in caplog.text
+    store.close()

@@ -33,6 +33,7 @@ from __future__ import annotations
 
 import math
 import threading
+import time
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, replace
 from typing import Any
@@ -43,6 +44,7 @@ from homecog.home.recent import Recent, recent_names
 from homecog.knowledge.additive import AtomLogistic
 from homecog.knowledge.evidence import ServiceLearner
 from homecog.knowledge.keys import Decision, sign_of
+from homecog.knowledge.snapshots import KEEP_AFTER, LayerSnapshots
 from homecog.knowledge.threshold import OnlineThreshold
 
 #: keys of at most this many atoms (features and the shared answer) ...
@@ -139,6 +141,8 @@ class UserLayers:
         # the latest answers: (user, point, the user's examples then, shared version), the
         # shared answer and the user's answers there
         self._last: tuple[tuple[Any, ...], frozenset[int], dict[int, Decision]] | None = None
+        # where the users' learned layers are kept between processes (set by the store)
+        self.snapshots: LayerSnapshots | None = None
         # per user, the lock their layer is learned and read under (:meth:`lock`)
         self._locks: dict[str | None, threading.RLock] = {}
 
@@ -305,18 +309,36 @@ class UserLayers:
         return (*(v for _, v in recent.values), str(self._names[a] in recent.previous), before, switched)
 
     def learners(self, user: str) -> dict[int, ServiceLearner]:
-        """A user's learners per service, made again if the shared tree changed since."""
+        """A user's learners per service, made again if the shared tree changed since: from
+        the user's snapshot where one holds their first corrections, else from the first."""
         version = self._version()
         if self._made_at.get(user) != version:
             with self.lock(user):
                 if self._made_at.get(user) != version:
-                    self._learners[user] = {}
-                    self._additive.pop(user, None)  # learned again too, never twice
-                    self._threshold.pop(user, None)
-                    for i, example in enumerate(self._examples.get(user, []), start=1):
-                        self._learn(user, example, i)
+                    self._make(user)
                     self._made_at[user] = version
         return self._learners.get(user, {})
+
+    def _make(self, user: str) -> None:
+        examples = self._examples.get(user, [])
+        kept = None if self.snapshots is None else self.snapshots.load(user, examples)
+        start, learned = kept if kept is not None else (0, ({}, None, None))
+        self._learners[user], additive, threshold = learned
+        for made, value in ((self._additive, additive), (self._threshold, threshold)):
+            made.pop(user, None)  # learned again too, never twice
+            if value is not None:
+                made[user] = value
+        began = time.perf_counter()
+        for i, example in enumerate(examples[start:], start=start + 1):
+            self._learn(user, example, i)
+        if time.perf_counter() - began >= KEEP_AFTER:
+            self.keep(user)
+
+    def keep(self, user: str) -> None:
+        """Keep what the user's layer learned (a snapshot), where the layers have a place for it."""
+        if self.snapshots is not None and user in self._learners:
+            learned = (self._learners[user], self._additive.get(user), self._threshold.get(user))
+            self.snapshots.save(user, self._examples.get(user, []), learned)
 
     def _value(self, user: str) -> float:
         threshold = self._threshold.get(user)

@@ -95,6 +95,8 @@ def learn_corrections(
         out.batches += 1
         if progress:
             progress(first + len(chunk), len(corrections))
+    for user in out.users:  # a long history is kept learned: a restart need not learn it again
+        tree.layers.keep(user)
     out.experiences = store.experience_count()
     out.seconds = time.perf_counter() - start
     return out

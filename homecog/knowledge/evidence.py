@@ -146,6 +146,16 @@ class ServiceLearner:
             np.array(r, dtype=np.intp).reshape(-1) for r in zip(*self._prior_rank, strict=True)
         )
 
+    def __getstate__(self) -> dict[str, object]:
+        """The learner as pickle keeps it: without what is made again from its keys and counts."""
+        made = ("_cell", "_hulls", "_backoff", "_ranking", "_best")
+        return {k: v for k, v in self.__dict__.items() if k not in made}
+
+    def __setstate__(self, state: dict[str, object]) -> None:
+        self.__dict__.update(state)
+        self._cell = [cell_of(k) for k in self.keys]
+        self._hulls, self._backoff, self._ranking, self._best = {}, None, None, None
+
     def _start_recent(self) -> None:
         """The recent past's keys join, with every example so far counted in them."""
         start = len(self.keys)

@@ -22,6 +22,7 @@ The learner never touches SQL: this module maps the tree to rows and back; the l
 
 from __future__ import annotations
 
+import hashlib
 import json
 import threading
 from collections.abc import Iterator
@@ -57,6 +58,7 @@ from homecog.knowledge.rows import (
 from homecog.knowledge.sample_log import SampleLog
 from homecog.knowledge.samples import SampleSet
 from homecog.knowledge.schema import ClusterRow, ExperienceRow, HomeRow, NodeRow, UserRow
+from homecog.knowledge.snapshots import LayerSnapshots
 from homecog.knowledge.state import COUNTERS, NodeState, TreeState
 from homecog.knowledge.statements import (
     BUMP_HOME,
@@ -67,6 +69,7 @@ from homecog.knowledge.statements import (
 )
 from homecog.knowledge.store_log import BUILD_SAMPLES, StoreLog
 from homecog.names import user_name_problem
+from homecog.paths import data_file
 
 SAMPLES_PER_ROW = 32768
 
@@ -204,7 +207,18 @@ class Store(StoreLog):
             for row in conn.execute(select(UserRow.name, UserRow.version).where(UserRow.home == h)):
                 self._versions[row.name] = row.version
             self._build = home_row.build
+            tree.layers.snapshots = self._snapshots(
+                f"{home_row.build}/{home_row.built_at}/{tree.data.version}"
+            )
             return tree
+
+    def _snapshots(self, build: str) -> LayerSnapshots | None:
+        """Where the users' learned layers of this database and build are kept (none for a
+        database in memory)."""
+        if self.url.startswith("sqlite://") and self.url.removeprefix("sqlite://") in ("", "/:memory:"):
+            return None
+        where = hashlib.sha256(redact(self.url).encode()).hexdigest()[:16]
+        return LayerSnapshots(data_file("layers", self.home, f"-{where}"), build)
 
     def read_user(self, user: str) -> tuple[int, list[Example]]:
         """A user's version and corrections as committed (what a tree should hold of them)."""

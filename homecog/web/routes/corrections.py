@@ -10,6 +10,7 @@ import json
 from collections.abc import Callable, Coroutine
 from typing import Any
 
+import anyio
 import pydantic_core
 from fastapi import APIRouter, Request, Response
 from fastapi.routing import APIRoute
@@ -60,12 +61,20 @@ class OnceNamedRoute(APIRoute):
         return handler
 
 
+#: corrections stored and learned at once, at most (the others wait their turn)
+CORRECTING = 2
+
+
 def router(models: HomeModels) -> APIRouter:
     """The correction route of one home."""
     r = APIRouter(tags=["cognition"], route_class=OnceNamedRoute)
 
+    # corrections take turns on at most CORRECTING threads: however many clients correct at
+    # once, cognition on the event loop competes with that many for the interpreter
+    turns = anyio.CapacityLimiter(CORRECTING)
+
     @r.post("/api/corrections", response_model=CorrectionOut, responses=responses(413, 422, 503))
-    def correct(body: models.correction_in, runtime: RuntimeDep) -> CorrectionOut:
+    async def correct(body: models.correction_in, runtime: RuntimeDep) -> CorrectionOut:
         """The services the user wants in the context: the whole set (`want`), or some services
         each added or rejected (`change`), every other service keeping what it had. The robot
         learns at once, for that user, and the experience log keeps it. 503 when the knowledge
@@ -77,6 +86,6 @@ def router(models: HomeModels) -> APIRouter:
             c = Correction.change(body.user, point, add=adds, reject=rejects)
         else:
             c = Correction.whole(body.user, point, parse_services(body.want, runtime.home))
-        return CorrectionOut(**runtime.correct(c))
+        return CorrectionOut(**await anyio.to_thread.run_sync(runtime.correct, c, limiter=turns))
 
     return r
