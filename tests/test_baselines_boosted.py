@@ -79,6 +79,20 @@ def test_it_learns_a_deterministic_rule_exactly():
     assert method.not_run() is None
 
 
+def test_a_stream_without_times_is_fitted_as_it_grows_by_half():
+    """No day boundary to wait for: fitted at 50 events, then at 75, 113 and 170."""
+    method, fitted = BoostedMethod(STUDIO), []
+    for row in stream(200):
+        method.predict_one(row.point)  # a snapshot: no recent past, no time
+        fitted.append(method.fits)
+        method.learn_one(row.point, sorted(row.truth))
+    assert [i for i in range(1, 200) if fitted[i] > fitted[i - 1]] == [50, 75, 113, 170]
+    # the lamp's rule needs no past: learned from the snapshots alone
+    assert all(
+        ("LampOn" in method.predict_one(r.point)) == ("LampOn" in r.truth) for r in stream(100, seed=1)
+    )
+
+
 def answers(rows: list[Scenario], tmp_path: Path, name: str) -> list[dict]:
     out = tmp_path / f"{name}.jsonl"
     replay_rows(STUDIO, rows, methods=["boosted"], predictions=out)

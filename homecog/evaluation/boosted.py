@@ -15,7 +15,7 @@ candidate with the best F1 on the past events, each judged before it was learned
 In ``eval`` it learns (at most ``max_samples`` of) the home's samples, the threshold chosen on
 the last fifth of them held out of the fit.
 
-It says why it did not run (:attr:`BoostedMethod.problem`): too few events for a fit, one
+It says why it did not run (:meth:`BoostedMethod.not_run`): too few events for a fit, one
 class for every service, or a fit that failed (the first failure; it fits no more after it).
 
 >>> from datetime import datetime, timedelta
@@ -90,8 +90,8 @@ class BoostedMethod:
         self.max_samples = max_samples
         self.seed = seed
         self.columns = Columns(home)
-        self.fits = 0
-        self.problem: str | None = None
+        self._fits = 0  # fits done so far
+        self._problem: str | None = None  # why it did not run, where a fit failed
         self._rows: list[np.ndarray] = []
         self._wanted: list[np.ndarray] = []
         self._forest: Forest | None = None
@@ -100,6 +100,11 @@ class BoostedMethod:
         self._last_day: Any = None  # the date of the latest event learned
         self._two_classes = False  # some fit so far had a service of two classes
         self._seen: tuple[Point, np.ndarray, np.ndarray | None] | None = None  # the last point answered
+
+    @property
+    def fits(self) -> int:
+        """How many times its trees were fitted so far."""
+        return self._fits
 
     @property
     def threshold(self) -> float:
@@ -136,17 +141,17 @@ class BoostedMethod:
     def _refresh(self, at: datetime | None) -> None:
         """Fit again before answering where the schedule says so (never with the event asked)."""
         n = len(self._rows)
-        if n < MIN_FIT or n == self._fitted_at or self.problem is not None:
+        if n < MIN_FIT or n == self._fitted_at or self._problem is not None:
             return
         new_day = at is not None and self._last_day is not None and at.date() != self._last_day
         timeless = at is None and n >= GROWTH * self._fitted_at
-        if new_day or (not self.fits and n >= FIRST_FIT) or (timeless and n >= FIRST_FIT):
+        if new_day or (not self._fits and n >= FIRST_FIT) or (timeless and n >= FIRST_FIT):
             self._fit(np.array(self._rows[-MAX_TRAIN:]), np.array(self._wanted[-MAX_TRAIN:]))
             self._fitted_at = n
 
     def _fit(self, x: np.ndarray, wanted: np.ndarray) -> bool:
         """A model per service of two classes, a constant per other; False where a fit failed
-        (the failure said in :attr:`problem`, the trees before it kept)."""
+        (the failure said by :meth:`not_run`, the trees before it kept)."""
         from threadpoolctl import threadpool_limits
 
         # a column unknown throughout (the recent past of samples) tells nothing, and
@@ -160,7 +165,7 @@ class BoostedMethod:
         if models is None:
             return False
         self._forest = Forest(models)
-        self.fits += 1
+        self._fits += 1
         self._two_classes = self._two_classes or any(not isinstance(m, float) for m in models)
         return True
 
@@ -185,7 +190,7 @@ class BoostedMethod:
             try:
                 models.append(model.fit(x, y))
             except Exception as e:  # scikit-learn's errors are many kinds; each is reported
-                self.problem = (
+                self._problem = (
                     f"not run: fitting its trees on {len(x):,} events failed: {type(e).__name__}: {e}"
                 )
                 return None
@@ -199,7 +204,7 @@ class BoostedMethod:
         wanted = samples.positions[pick] >= 0
         cut = len(pick) - len(pick) // 5
         if len(pick) < MIN_FIT:
-            self.problem = f"not run: {len(pick):,} samples, too few to fit (it fits from {MIN_FIT} on)"
+            self._problem = f"not run: {len(pick):,} samples, too few to fit (it fits from {MIN_FIT} on)"
             return self
         if not self._fit(x[:cut], wanted[:cut]):
             return self
@@ -212,9 +217,9 @@ class BoostedMethod:
 
     def not_run(self) -> str | None:
         """Why its answers say nothing of gradient-boosted trees (None: they do)."""
-        if self.problem is not None:
-            return self.problem
-        if not self.fits:
+        if self._problem is not None:
+            return self._problem
+        if not self._fits:
             n = max(len(self._rows), self._fitted_at)
             return (
                 f"not run: {n:,} event{'' if n == 1 else 's'}, too few to fit: it fits from {MIN_FIT} "
