@@ -140,7 +140,17 @@ def test_eval_json_and_learning_curve(tmp_path, capsys):
     data = json.loads(out)
     assert data["scenarios"] == 400
     assert set(data["methods"]) == {
-        *("multi", "paper", "kmeans", "hoeffding", "frequency", "naive_bayes", "ha_usage", "markov")
+        *(
+            "multi",
+            "paper",
+            "kmeans",
+            "hoeffding",
+            "frequency",
+            "naive_bayes",
+            "ha_usage",
+            "markov",
+            "boosted",
+        )
     }
     for m in data["methods"].values():
         assert set(m) >= {"precision", "recall", "f1", "exact"}

@@ -7,7 +7,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from homecog.evaluation.leads import MIN_EVENTS, f1_difference, leads
+from homecog.evaluation.leads import MIN_EVENTS, f1_difference, leads, pooled_difference, pooled_leads
 from homecog.evaluation.metrics import prf
 
 event = st.tuples(st.integers(0, 3), st.integers(0, 3), st.integers(0, 3)).map(
@@ -79,3 +79,32 @@ def test_leads_need_the_base_method():
     assert leads(counts) == {}
     versus = leads(counts, base="frequency")
     assert list(versus) == ["naive_bayes"] and versus["naive_bayes"].difference == pytest.approx(1.0)
+
+
+def test_pooled_homes_weigh_the_same_and_draw_each_home_alone():
+    """A long home does not outweigh a short one; the interval of one home is its own bootstrap's
+    width; a home where the two agree on every event narrows nothing but halves the mean."""
+    ahead = [(1, 1, 1)] * 60 + [(0, 1, 1)] * 40
+    behind = [(1, 1, 1)] * 40 + [(0, 1, 1)] * 60
+    short, long = (ahead, behind), (behind * 10, ahead * 10)
+    d = pooled_difference([short, long])
+    assert d.difference == pytest.approx(0.0, abs=1e-12)  # +0.2 and −0.2, each home once
+    assert d.low < 0 < d.high
+    one = pooled_difference([short])
+    assert one.difference == pytest.approx(0.2)
+    assert 0 < one.low < 0.2 < one.high
+    same = pooled_difference([short, (ahead, ahead)])
+    assert same.difference == pytest.approx(0.1)
+    assert same.high - same.low == pytest.approx((one.high - one.low) / 2, abs=0.02)
+    few = pooled_difference([short, (ahead[:5], behind[:5])])
+    assert (few.low, few.high) == (None, None)
+    with pytest.raises(ValueError, match="no home"):
+        pooled_difference([])
+
+
+def test_pooled_leads_count_the_homes_where_both_ran():
+    a = [(1, 1, 1)] * 30
+    b = [(0, 1, 1)] * 30
+    out = pooled_leads({"h1": {"multi": a, "x": b, "y": b}, "h2": {"multi": a, "x": a}})
+    assert {m: n for m, (_, n) in out.items()} == {"x": 2, "y": 1}
+    assert out["x"][0].difference == pytest.approx(0.5) and out["y"][0].difference == pytest.approx(1.0)

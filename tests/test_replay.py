@@ -40,7 +40,17 @@ def test_replay_learns_the_household(tmp_path, capsys):
     data = json.loads(out)
     assert data["events"] == 300
     assert set(data["methods"]) == {
-        *("multi", "paper", "kmeans", "hoeffding", "frequency", "naive_bayes", "ha_usage", "markov")
+        *(
+            "multi",
+            "paper",
+            "kmeans",
+            "hoeffding",
+            "frequency",
+            "naive_bayes",
+            "ha_usage",
+            "markov",
+            "boosted",
+        )
     }
     for m in data["methods"].values():
         assert set(m) == {"precision", "recall", "f1"}

@@ -5,7 +5,8 @@ gives one method's micro F1 minus another's with a 95 % *paired* bootstrap inter
 (``scipy.stats.bootstrap``, percentile): the events are drawn again with replacement, the same
 for both methods, so what the events have in common cancels. An interval that holds 0 says the
 events cannot tell the two apart. ``eval`` and ``replay`` show it for ``multi`` against every
-other method (:func:`leads`).
+other method (:func:`leads`). Over several homes, :func:`pooled_difference` weighs each home
+the same and draws each home's events from that home alone (a bootstrap stratified by home).
 
 >>> multi = [(1, 1, 1)] * 90 + [(0, 1, 1)] * 10
 >>> count = [(1, 1, 1)] * 50 + [(0, 1, 1)] * 50
@@ -105,6 +106,59 @@ def f1_difference(a: Counts, b: Counts, *, resamples: int = 2000, seed: int = 0)
     )
     low, high = result.confidence_interval
     return Difference(point, float(low), float(high))
+
+
+def pooled_difference(
+    homes: Sequence[tuple[Counts, Counts]], *, resamples: int = 2000, seed: int = 0
+) -> Difference:
+    """Over several homes, each weighing the same: the mean of the homes' micro F1 differences
+    (the first method's minus the second's), with a 95 % bootstrap interval *stratified* by
+    home: every draw resamples each home's events from that home alone, paired, and averages
+    the homes' differences; the percentile interval of those means. None for the interval
+    where a home has under :data:`MIN_EVENTS` events.
+
+    >>> a = [(1, 1, 1)] * 30 + [(0, 1, 1)] * 10
+    >>> b = [(1, 1, 1)] * 20 + [(0, 1, 1)] * 20
+    >>> d = pooled_difference([(a, b), (b, b)])
+    >>> round(d.difference, 3), 0 < d.low < d.high < 0.25
+    (0.125, True)
+    """
+    rows = [(_rows(one), _rows(two)) for one, two in homes]
+    if not rows:
+        raise ValueError("no home to pool")
+    point = float(np.mean([_home_difference(one[None], two[None])[0] for one, two in rows]))
+    if any(len(one) < MIN_EVENTS for one, _ in rows):
+        return Difference(point, None, None)
+    means = np.zeros(resamples)
+    for k, (one, two) in enumerate(rows):
+        if len(one) != len(two):
+            raise ValueError(f"{len(one)} events for one method, {len(two)} for the other")
+        rng = np.random.default_rng([seed, k])
+        for start in range(0, resamples, batch := max(1, 1_000_000 // len(one))):
+            draws = rng.integers(0, len(one), (min(batch, resamples - start), len(one)))
+            means[start : start + len(draws)] += _home_difference(one[draws], two[draws]) / len(rows)
+    low, high = np.percentile(means, [2.5, 97.5])
+    return Difference(point, float(low), float(high))
+
+
+def _home_difference(one: np.ndarray, two: np.ndarray) -> np.ndarray:
+    """Per draw (the first axis) of events (the second), micro F1 of ``one`` minus ``two``."""
+    first, second = one.sum(axis=1), two.sum(axis=1)
+    return _f1_of_sums(*first.T) - _f1_of_sums(*second.T)
+
+
+def pooled_leads(
+    homes: dict[str, dict[str, Counts]], base: str = "multi", *, resamples: int = 2000
+) -> dict[str, tuple[Difference, int]]:
+    """Per method other than ``base``: ``base``'s lead over it pooled over the homes where
+    both ran (:func:`pooled_difference`), and the number of those homes."""
+    names = dict.fromkeys(m for counts in homes.values() for m in counts if m != base)
+    out = {}
+    for name in names:
+        pairs = [(c[base], c[name]) for c in homes.values() if base in c and name in c]
+        if pairs:
+            out[name] = (pooled_difference(pairs, resamples=resamples), len(pairs))
+    return out
 
 
 def leads(counts: dict[str, Counts], base: str = "multi") -> dict[str, Difference]:

@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from homecog.evaluation.methods import Method, TreeMethod
+from homecog.evaluation.methods import Method, TreeMethod, not_run
 from homecog.evaluation.registry import REGISTRY, Setting, check_methods
 from homecog.home.codec import Space
 from homecog.home.model import Home
@@ -139,6 +139,8 @@ def learn_methods(
             progress(f"learning {name} ...")
         assert draws is not None
         made[name].fit(draws)
+        if why := not_run(made[name]):
+            skipped[name] = why
     tree = made.get("multi")
     return Learned(
         methods={n: made[n] for n in names if n not in skipped},

@@ -55,6 +55,13 @@ class Method(Protocol):
         ...
 
 
+def not_run(method: Method) -> str | None:
+    """Why a method's answers say nothing of it, said by a method that can find that out only
+    once it has learned (too few events, a single class, a fit that failed); None: they do."""
+    why = getattr(method, "not_run", None)
+    return why() if callable(why) else None
+
+
 class TreeMethod:
     """The IHDR tree (``multi`` or ``paper``) as an evaluation method."""
 

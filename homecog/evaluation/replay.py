@@ -32,7 +32,7 @@ import numpy as np
 from homecog.errors import EvaluationError
 from homecog.evaluation.leads import Difference, leads
 from homecog.evaluation.learn import Learned, learn_methods
-from homecog.evaluation.methods import Method
+from homecog.evaluation.methods import Method, not_run
 from homecog.evaluation.metrics import prf
 from homecog.evaluation.registry import METHOD_NAMES, REGISTRY, Setting, check_methods
 from homecog.home.codec import Point
@@ -218,6 +218,10 @@ def replay_rows(
             if progress and (i % 1000 == 0 or time.perf_counter() - said >= PROGRESS_SECONDS):
                 progress(Counted.of("events", i, len(rows)))
                 said = time.perf_counter()
+    for name, method in started.items():  # a method that could not run on this stream says why
+        if why := not_run(method):
+            skipped[name] = why
+            del tallies[name]
     return ReplayResult(
         events=len(rows),
         methods={name: t.figures() for name, t in tallies.items()},
