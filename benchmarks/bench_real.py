@@ -155,6 +155,22 @@ def pooled_markdown(results: dict[str, ReplayResult], leads: dict[str, tuple[Dif
     return "\n".join(lines)
 
 
+def calibration_markdown(results: dict[str, ReplayResult]) -> str:
+    """Per home, every method's expected calibration error (prequential, p ≥ 0.1, ten bins),
+    and their mean over the homes."""
+    methods = [m for m in METHOD_NAMES if any(m in r.calibration for r in results.values())]
+    lines = ["| ECE | " + " | ".join(methods) + " |", "|---|" + "---|" * len(methods)]
+    for name, r in results.items():
+        cells = (f"{r.calibration[m]['ece']:.3f}" if m in r.calibration else "" for m in methods)
+        lines.append(f"| {name} | " + " | ".join(cells) + " |")
+    means = []
+    for m in methods:
+        eces = [r.calibration[m]["ece"] for r in results.values() if m in r.calibration]
+        means.append(f"{sum(eces) / len(eces):.3f}")
+    lines.append("| mean over the homes | " + " | ".join(means) + " |")
+    return "\n".join(lines)
+
+
 def update_readme(markdown: str, path: Path = README) -> bool:
     """Put ``markdown`` between the real markers of a file; False where it has none."""
     text = path.read_text(encoding="utf-8")
@@ -244,6 +260,8 @@ def main() -> None:
     summary["pooled"] = {m: {**d.as_dict(), "homes": n} for m, (d, n) in leads.items()}
     (args.out / "real.json").write_text(json.dumps(summary, indent=1) + "\n", encoding="utf-8")
     together = pooled_markdown(results, leads)
+    calibration = calibration_markdown(results)
+    together += "\n\n" + calibration
     markdown = table_markdown(results, switches) + "\n\n" + together
     print(markdown)
     if args.no_readme:

@@ -88,12 +88,16 @@ def replay_table(result: Any, events: str) -> Table:
     """Each method's running figures at the end of an event stream."""
     table = Table(title=f"{result.events:,} events of {events}, predicted then learned", title_justify="left")
     versus = result.versus()
-    columns = ["method", "precision", "recall", "F1"] + ([VERSUS] if versus else [])
+    columns = ["method", "precision", "recall", "F1", "ECE"] + ([VERSUS] if versus else [])
     for col in columns:
         table.add_column(col, justify="right" if col != "method" else "left")
     for name, m in result.methods.items():
         against = [str(versus[name]) if name in versus else ""] if versus else []
-        table.add_row(name, *(f"{m[k]:.4f}" for k in ("precision", "recall", "f1")), *against)
+        ece = result.calibration[name]["ece"] if name in result.calibration else None
+        figures = (f"{m[k]:.4f}" for k in ("precision", "recall", "f1"))
+        table.add_row(name, *figures, "" if ece is None else f"{ece:.4f}", *against)
+    if result.calibration:
+        table.caption = "ECE: expected calibration error of the methods' probabilities (p ≥ 0.1, ten bins)"
     return table
 
 

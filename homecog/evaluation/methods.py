@@ -78,6 +78,10 @@ class TreeMethod:
     def predict_one(self, point: Point) -> list[str]:
         return self.tree.predict_one(point, user=self.user)
 
+    def scores_one(self, point: Point) -> dict[str, float]:
+        """Per service, the score a calibrator makes a probability of (:meth:`IHDRTree.scores_one`)."""
+        return self.tree.scores_one(point, user=self.user)
+
     def learn_one(self, point: Point, wanted: Sequence[str]) -> None:
         """A correction by the user (the same path as ``homecog correct``, in memory)."""
         self.tree.correct_one(point, list(wanted), user=self.user)

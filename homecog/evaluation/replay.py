@@ -30,6 +30,7 @@ from typing import Any, TextIO, TypedDict, Unpack
 import numpy as np
 
 from homecog.errors import EvaluationError
+from homecog.evaluation.calibrated import Calibrated, scores_of
 from homecog.evaluation.leads import Difference, leads
 from homecog.evaluation.learn import Learned, learn_methods
 from homecog.evaluation.methods import Method, not_run
@@ -55,6 +56,8 @@ class ReplayResult:
     running: dict[str, list[tuple[int, float, float, float]]]  # (events, precision, recall, f1)
     seconds: float
     skipped: dict[str, str] = field(default_factory=dict)
+    # per method: its expected calibration error, the pairs it is over, its reliability table
+    calibration: dict[str, dict[str, Any]] = field(default_factory=dict)
     # per method, per event: (hits, predicted, true), an array of n × 3
     counts: dict[str, np.ndarray] = field(default_factory=dict, repr=False)
     _versus: dict[str, Difference] | None = field(default=None, init=False, compare=False, repr=False)
@@ -76,13 +79,21 @@ class ReplayResult:
             **({"multi_minus": {k: d.as_dict() for k, d in versus.items()}} if versus else {}),
             "seconds": round(self.seconds, 3),
             "running": {k: [list(r) for r in v] for k, v in self.running.items()},
+            **({"calibration": self.calibration} if self.calibration else {}),
             **({"skipped": self.skipped} if self.skipped else {}),
         }
 
 
-def prediction_line(i: int, row: Scenario, answers: dict[str, Sequence[str]], order: Sequence[str]) -> str:
+def prediction_line(
+    i: int,
+    row: Scenario,
+    answers: dict[str, Sequence[str]],
+    order: Sequence[str],
+    probabilities: dict[str, dict[str, float]] | None = None,
+) -> str:
     """One event of a predictions file: its number (from 1), time, truth and every method's
-    answer, services in the home's order.
+    answer, services in the home's order, and with ``probabilities`` each method's calibrated
+    probability of every service of 0.01 or more.
 
     >>> from homecog.home.codec import Point
     >>> row = Scenario(context={}, point=Point((), ()), truth=frozenset({"B", "A"}))
@@ -96,6 +107,10 @@ def prediction_line(i: int, row: Scenario, answers: dict[str, Sequence[str]], or
         "truth": sorted(row.truth, key=rank.__getitem__),
     }
     data.update({name: sorted(answer, key=rank.__getitem__) for name, answer in answers.items()})
+    if probabilities is not None:
+        data["probabilities"] = {
+            name: {s: p[s] for s in sorted(p, key=rank.__getitem__)} for name, p in probabilities.items()
+        }
     return json.dumps(data) + "\n"
 
 
@@ -154,8 +169,10 @@ def _start(
 
 @dataclass
 class _Tally:
-    """One method's figures as a replay goes: totals, the running course, every event's counts."""
+    """One method's figures as a replay goes: totals, the running course, every event's counts,
+    its calibrated probabilities."""
 
+    calibrated: Calibrated
     totals: list[int] = field(default_factory=lambda: [0, 0, 0])  # hits, predicted, true
     running: list[tuple[int, float, float, float]] = field(default_factory=list)
     counts: array = field(default_factory=lambda: array("i"))  # hits, predicted, true per event, flat
@@ -173,15 +190,18 @@ class _Tally:
 
 def _event(
     started: dict[str, Method], tallies: dict[str, _Tally], point: Point, row: Scenario
-) -> dict[str, list[str]]:
-    """Every method predicts one event, is judged, then learns it; the answers."""
-    answers = {}
+) -> tuple[dict[str, list[str]], dict[str, dict[str, float]]]:
+    """Every method predicts one event, is judged, then learns it; the answers and their
+    calibrated probabilities."""
+    answers, probabilities = {}, {}
     for name, method in started.items():
         answer = answers[name] = method.predict_one(point)
         truth = row.truth_for(answer)
-        tallies[name].add(set(answer), truth)
+        tally = tallies[name]
+        tally.add(set(answer), truth)
+        probabilities[name] = tally.calibrated.step(scores_of(method, point, answer), truth)
         method.learn_one(point, sorted(truth))
-    return answers
+    return answers, probabilities
 
 
 def replay_rows(
@@ -202,19 +222,19 @@ def replay_rows(
     check_size(home, joint=joint)
     started, skipped = _start(home, methods, seed=seed, joint=joint, progress=progress)
     every = max(1, len(rows) // points)
-    tallies = {name: _Tally() for name in started}
+    tallies = {name: _Tally(Calibrated(home.service_names)) for name in started}
     past = RecentPast(home)
     said = time.perf_counter()  # when progress was last reported
     with _predictions_file(predictions) as sink:
         for i, row in enumerate(rows, start=1):
             point = replace(row.point, recent=past.at(row.timestamp, row.context))
-            answers = _event(started, tallies, point, row)
+            answers, probabilities = _event(started, tallies, point, row)
             if i % every == 0 or i == len(rows):
                 for tally in tallies.values():
                     tally.running.append((i, *prf(*tally.totals)))
             past.learn(row.timestamp, row.context, row.truth)
             if sink is not None:
-                sink.write(prediction_line(i, row, answers, home.service_names))
+                sink.write(prediction_line(i, row, answers, home.service_names, probabilities))
             if progress and (i % 1000 == 0 or time.perf_counter() - said >= PROGRESS_SECONDS):
                 progress(Counted.of("events", i, len(rows)))
                 said = time.perf_counter()
@@ -228,5 +248,6 @@ def replay_rows(
         running={name: t.running for name, t in tallies.items()},
         seconds=time.perf_counter() - start,
         skipped=skipped,
+        calibration={name: t.calibrated.figures() for name, t in tallies.items()},
         counts={name: np.frombuffer(t.counts, dtype=np.int32).reshape(-1, 3) for name, t in tallies.items()},
     )

@@ -38,14 +38,17 @@ from collections.abc import Callable, Iterator
 from dataclasses import dataclass, replace
 from typing import Any
 
+import numpy as np
+
 from homecog.home.codec import Point, Space
 from homecog.home.model import Home
 from homecog.home.recent import Recent, recent_names
 from homecog.knowledge.additive import AtomLogistic
 from homecog.knowledge.evidence import ServiceLearner
-from homecog.knowledge.keys import Decision, sign_of
+from homecog.knowledge.keys import Decision, learner_codes, sign_of
 from homecog.knowledge.snapshots import KEEP_AFTER, LayerSnapshots
 from homecog.knowledge.threshold import OnlineThreshold
+from homecog.knowledge.user_calibration import UserCalibration
 
 #: keys of at most this many atoms (features and the shared answer) ...
 ORDER = 3
@@ -141,6 +144,8 @@ class UserLayers:
         # the latest answers: (user, point, the user's examples then, shared version), the
         # shared answer and the user's answers there
         self._last: tuple[tuple[Any, ...], frozenset[int], dict[int, Decision]] | None = None
+        # per user, the probability that a service is wanted given the layer's score
+        self.calibration = UserCalibration()
         # where the users' learned layers are kept between processes (set by the store)
         self.snapshots: LayerSnapshots | None = None
         # per user, the lock their layer is learned and read under (:meth:`lock`)
@@ -189,6 +194,7 @@ class UserLayers:
     def _replace(self, user: str, examples: list[Example]) -> None:
         for made in (self._learners, self._made_at, self._threshold, self._additive):
             made.pop(user, None)
+        self.calibration.forget(user)
         if examples:
             self._examples[user] = list(examples)
         else:
@@ -240,6 +246,7 @@ class UserLayers:
         else:
             shared, answers = self._shared(example.point), {}
         covered = self.covered(example.want)
+        scores, wanted_ones = [], []  # the scores just before, and what the user wanted
         for a in range(len(self._effects)):
             if not self.changes(a, codes) or not example.speaks_of(a) or a in covered:
                 continue
@@ -255,10 +262,11 @@ class UserLayers:
                 )
             wanted = a in example.want
             atoms = self.recent_atoms(a, recent)
-            if example.concerns is None:  # a whole set: a fair sample of the user's answers
-                before = answers.get(a) or self._answer(user, a, learner, example.point, a in shared, atoms)
-                if before.sign:  # the evidence said something there
-                    threshold.judge(before.share, wanted)
+            before = answers.get(a) or self._answer(user, a, learner, example.point, a in shared, atoms)
+            if before.sign and example.concerns is None:  # a whole set: a fair sample of answers
+                threshold.judge(before.share, wanted)
+            scores.append(before.share if before.sign else float(a in shared))
+            wanted_ones.append(wanted)
             learner.add(
                 readings,
                 codes,
@@ -272,6 +280,7 @@ class UserLayers:
             if recent is not None and example.concerns is None:  # a whole example of a stream
                 model = self._additive.setdefault(user, AtomLogistic())
                 model.learn_one(a, learner.atoms(readings, codes, a in shared, atoms), wanted, example.weight)
+        self.calibration.learn(user, np.array(scores), np.array(wanted_ones, dtype=bool))
         self._last = None
 
     def _answer(
@@ -322,8 +331,9 @@ class UserLayers:
     def _make(self, user: str) -> None:
         examples = self._examples.get(user, [])
         kept = None if self.snapshots is None else self.snapshots.load(user, examples)
-        start, learned = kept if kept is not None else (0, ({}, None, None))
-        self._learners[user], additive, threshold = learned
+        start, learned = kept if kept is not None else (0, ({}, None, None, None))
+        self._learners[user], additive, threshold, calibrator = learned
+        self.calibration.put(user, calibrator)
         for made, value in ((self._additive, additive), (self._threshold, threshold)):
             made.pop(user, None)  # learned again too, never twice
             if value is not None:
@@ -337,7 +347,8 @@ class UserLayers:
     def keep(self, user: str) -> None:
         """Keep what the user's layer learned (a snapshot), where the layers have a place for it."""
         if self.snapshots is not None and user in self._learners:
-            learned = (self._learners[user], self._additive.get(user), self._threshold.get(user))
+            mine = (self._additive.get(user), self._threshold.get(user), self.calibration.get(user))
+            learned = (self._learners[user], *mine)
             self.snapshots.save(user, self._examples.get(user, []), learned)
 
     def _value(self, user: str) -> float:
@@ -363,19 +374,22 @@ class UserLayers:
                 answers[a] = self._answer(
                     user, a, learner, p, a in shared, self.recent_atoms(a, p.recent), threshold
                 )
-        key = (user, learner_codes(p), p.readings, p.recent, len(self._examples[user]), self._version())
-        self._last = (key, shared, answers)
+        self._last = (self._key(user, p), shared, answers)
         for a, d in answers.items():
             if d.sign:
                 yield a, d
 
+    def _key(self, user: str, p: Point) -> tuple[Any, ...]:
+        """What the latest answers were given for: the user, the point, their examples, the tree."""
+        return (user, learner_codes(p), p.readings, p.recent, len(self._examples[user]), self._version())
 
-def learner_codes(p: Point) -> tuple[int, ...]:
-    """A point's codes as the learners read them: −1 where a reading is missing.
-
-    >>> learner_codes(Point((2, 0, 1), (None, None, None), missing=frozenset({1})))
-    (2, -1, 1)
-    """
-    if not p.missing:
-        return p.codes
-    return tuple(-1 if j in p.missing else c for j, c in enumerate(p.codes))
+    def shares(self, user: str | None, p: Point, shared: frozenset[int]) -> dict[int, float]:
+        """Per service the user's evidence decides at ``p``, its share of wanted examples (the
+        latest answers' where they were given at this point)."""
+        if user is None or user not in self._examples:
+            return {}
+        if self._last is None or self._last[0] != self._key(user, p):
+            for _ in self.decisions(user, p, shared):
+                pass
+        assert self._last is not None
+        return {a: d.share for a, d in self._last[2].items() if d.sign}

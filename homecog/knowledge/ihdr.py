@@ -154,11 +154,38 @@ class IHDRTree:
     def explain_one(self, x: Mapping[str, object] | Point, user: str | None = None) -> Cognition:
         """Services for a context, ordered by priority, with why (Algorithm 3); a scene says
         which services it does the work of."""
-        return search.explain(self.data, self._layers, self.point(x), user)
+        p = self.point(x)
+        cognition = search.explain(self.data, self._layers, p, user)
+        probabilities = self.probabilities_one(p, user)
+        cognition.probabilities = {s: probabilities[s] for s in cognition.services if s in probabilities}
+        return cognition
+
+    def probabilities_one(self, x: Mapping[str, object] | Point, user: str | None = None) -> dict[str, float]:
+        """Per service that would change something in context ``x``: the probability that the
+        user wants it now, their layer's score calibrated on their own history
+        (:mod:`homecog.knowledge.user_calibration`)."""
+        scores = self.scores_one(x, user)
+        p = self._layers.calibration.predict(
+            user, np.fromiter(scores.values(), dtype=float, count=len(scores))
+        )
+        return dict(zip(scores, np.round(p, 4).tolist(), strict=True))
 
     def predict_one(self, x: Mapping[str, object] | Point, user: str | None = None) -> list[str]:
         """The services the user needs in context ``x``, in priority order."""
         return [node.name for node, _ in search.search(self.data, self._layers, self.point(x), user)[0]]
+
+    def scores_one(self, x: Mapping[str, object] | Point, user: str | None = None) -> dict[str, float]:
+        """Per service that would change something in context ``x``: the user's evidence's
+        share of wanted examples where it decides, else 1 where the shared tree proposes the
+        service and 0 where not (what a calibrator makes probabilities of)."""
+        p = self.point(x)
+        shared = self._shared_services(p)
+        decided = self._layers.shares(user, p, shared)
+        names = self.home.service_names
+        changes = self._layers.changes
+        return {
+            names[a]: decided.get(a, float(a in shared)) for a in range(len(names)) if changes(a, p.codes)
+        }
 
     def describe(self, cluster: Cluster) -> dict[str, str]:
         """A cluster's conditions as text, per related dimension."""

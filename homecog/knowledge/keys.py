@@ -11,6 +11,10 @@ import operator
 from collections.abc import Callable
 from dataclasses import dataclass
 from itertools import combinations
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from homecog.home.codec import Point
 
 Atom = object
 Key = tuple[int, ...]
@@ -78,3 +82,15 @@ class Decision:
     unwanted: int
     threshold: float = 0.5
     share: float = 0.5  # the estimated probability that the service is wanted here
+
+
+def learner_codes(p: Point) -> tuple[int, ...]:
+    """A point's codes as the learners read them: −1 where a reading is missing.
+
+    >>> from homecog.home.codec import Point
+    >>> learner_codes(Point((2, 0, 1), (None, None, None), missing=frozenset({1})))
+    (2, -1, 1)
+    """
+    if not p.missing:
+        return p.codes
+    return tuple(-1 if j in p.missing else c for j, c in enumerate(p.codes))

@@ -153,12 +153,14 @@ class Cognition:
     services: list[str]
     unknown: bool
     explanations: list[Explanation]
+    probabilities: dict[str, float] = field(default_factory=dict)  # per service proposed
 
     def as_dict(self) -> dict[str, Any]:
         return {
             "services": self.services,
             "unknown": self.unknown,
             "explanations": [e.as_dict() for e in self.explanations],
+            "probabilities": self.probabilities,
         }
 
 

@@ -45,6 +45,8 @@ log = logging.getLogger(__name__)
 
 #: a layer learned again in at least this many seconds is kept (a quicker one is not worth it)
 KEEP_AFTER = 1.0
+#: what a snapshot holds changes with this (another's is ignored)
+FORMAT = 2
 
 
 class LayerSnapshots:
@@ -60,7 +62,13 @@ class LayerSnapshots:
     def save(self, user: str, examples: Sequence[Example], learned: Any) -> None:
         """Keep what a user's layer learned from ``examples`` (every one of their corrections so
         far); a snapshot that cannot be written is logged and left out."""
-        kept = {"build": self.build, "n": len(examples), "digest": digest(examples), "learned": learned}
+        kept = {
+            "format": FORMAT,
+            "build": self.build,
+            "n": len(examples),
+            "digest": digest(examples),
+            "learned": learned,
+        }
         try:
             with atomic_write(self._path(user), StoreError) as f:
                 pickle.dump(kept, f, protocol=pickle.HIGHEST_PROTOCOL)
@@ -75,7 +83,12 @@ class LayerSnapshots:
             with path.open("rb") as f:
                 kept = pickle.load(f)
             n = kept["n"]
-            if kept["build"] != self.build or n > len(examples) or kept["digest"] != digest(examples[:n]):
+            if (
+                kept.get("format") != FORMAT
+                or kept["build"] != self.build
+                or n > len(examples)
+                or kept["digest"] != digest(examples[:n])
+            ):
                 return None
             return n, kept["learned"]
         except FileNotFoundError:

@@ -172,6 +172,11 @@ class CognizeOut(BaseModel):
     services: list[str] = Field(description="In priority order.")
     unknown: bool = Field(description="True when no experience answers the context.")
     explanations: list[ExplanationOut]
+    probabilities: dict[str, float] = Field(
+        default_factory=dict,
+        description="Per service proposed: the probability (0 to 1) that the user wants it now, "
+        "calibrated on the household's own corrections.",
+    )
 
 
 class StoredCorrection(BaseModel):
