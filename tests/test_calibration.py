@@ -110,3 +110,18 @@ def test_a_cognition_says_how_likely_each_proposal_is_from_the_user_s_own_histor
         wanted += [k in s.truth for k in every]
     assert expected_calibration_error(np.array(p), np.array(wanted)) <= 0.1
     store.close()
+
+
+def test_eval_reports_every_method_s_calibration(capsys):
+    """``eval`` makes every method's answers probabilities too, calibrated scenario by scenario."""
+    from homecog.cli.main import main
+
+    args = ["--home", str(STUDIO), "--truth", str(KIM), "--scenarios", "300", "--methods", "multi,frequency"]
+    code = main(["eval", *args, "--json"])
+    out, err = capsys.readouterr()
+    assert code == 0, err
+    methods = json.loads(out)["methods"]
+    for name in ("multi", "frequency"):
+        calibration = methods[name]["calibration"]
+        assert 0 <= calibration["ece"] <= 0.1 and calibration["pairs"] > 0
+        assert sum(r["pairs"] for r in calibration["reliability"]) == calibration["pairs"]

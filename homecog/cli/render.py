@@ -70,16 +70,19 @@ def eval_table(result: Any, home: str, truth: str) -> Table:
     """Each method's micro figures, beside the paper's Table 9 on the paper's own home."""
     table = Table(title=f"{home}: {result.scenarios:,} scenarios, truth {truth}", title_justify="left")
     versus = result.versus()
-    columns = ["method", "precision", "recall", "F1", "exact", "seconds"] + ([VERSUS] if versus else [])
+    columns = ["method", "precision", "recall", "F1", "exact", "ECE", "seconds"] + (
+        [VERSUS] if versus else []
+    )
     for col in columns:
         table.add_column(col, justify="right" if col != "method" else "left")
     for name, m in result.methods.items():
         figures = (f"{m.micro[k]:.4f}" for k in ("precision", "recall", "f1", "exact"))
         against = [str(versus[name]) if name in versus else ""] if versus else []
-        table.add_row(name, *figures, f"{m.seconds:.2f}", *against)
+        ece = f"{m.calibration['ece']:.4f}" if m.calibration else ""
+        table.add_row(name, *figures, ece, f"{m.seconds:.2f}", *against)
     for name, (p, r, f) in PAPER_TABLE9.items() if result.paper else ():
         table.add_row(
-            name, f"{p / 100:.4f}", f"{r / 100:.4f}", f"{f / 100:.4f}", "", "", *([""] if versus else [])
+            name, f"{p / 100:.4f}", f"{r / 100:.4f}", f"{f / 100:.4f}", "", "", "", *([""] if versus else [])
         )
     return table
 

@@ -25,6 +25,7 @@ import numpy as np
 
 from homecog.errors import EvaluationError
 from homecog.evaluation import metrics
+from homecog.evaluation.calibrated import Calibrated, scores_of
 from homecog.evaluation.leads import Difference, event_counts, leads
 from homecog.evaluation.learn import learn_methods
 from homecog.evaluation.methods import Method, TreeMethod
@@ -65,6 +66,8 @@ class MethodResult:
     per_service: dict[str, dict[str, float]]
     seconds: float
     predictions: list[list[str]] = field(default_factory=list, repr=False)
+    # the expected calibration error of its probabilities, its pairs, its reliability table
+    calibration: dict[str, Any] = field(default_factory=dict)
     # per scenario: (hits, predicted, true), an array of n × 3
     counts: np.ndarray = field(default_factory=lambda: np.zeros((0, 3), dtype=np.int32), repr=False)
 
@@ -74,6 +77,7 @@ class MethodResult:
             "averaged": {k: round(v, 6) for k, v in self.averaged.items()},
             "per_service": self.per_service,
             "seconds": round(self.seconds, 3),
+            **({"calibration": self.calibration} if self.calibration else {}),
         }
 
 
@@ -86,7 +90,11 @@ def evaluate(method: Method, scenarios: Sequence[Scenario], services: Sequence[s
     micro = metrics.scores(predicted, truths).as_dict()
     averaged = metrics.averaged(predicted, truths)
     per_service = metrics.per_service(predicted, truths, services)
+    calibrated = Calibrated(services)  # its probabilities, calibrated scenario by scenario
+    for s, answer, truth in zip(scenarios, predicted, truths, strict=True):
+        calibrated.step(scores_of(method, s.point, answer), set(truth))
     return MethodResult(
+        calibration=calibrated.figures(),
         micro=micro,
         averaged=averaged,
         per_service=per_service,
