@@ -345,6 +345,19 @@ def test_corrections_and_cognitions_looking_at_the_database_never_deadlock(store
     store.close()
 
 
+def _kim_corrected(stored, tmp_path, wants: list[list[str]]):
+    """A copy of the studio's database where kim made these whole corrections at WORK: its
+    url, the store, the tree and the point."""
+    home, _ = stored
+    url = _copy(stored, tmp_path)
+    store = Store.open(url, home)
+    tree = store.load_tree()
+    point = tree.space.point({k: str(v) for k, v in WORK.items()})
+    for want in wants:
+        core.correct(store, tree, Correction.whole("kim", point, want))
+    return url, store, tree, point
+
+
 def test_a_user_s_layer_is_learned_off_the_robot_s_lock_and_other_users_never_wait(stored, tmp_path):
     """After a restart a user's first answer learns their layer from every correction: under
     that user's lock alone, so that while it learns the robot's lock is free and another
@@ -352,12 +365,9 @@ def test_a_user_s_layer_is_learned_off_the_robot_s_lock_and_other_users_never_wa
     import threading
 
     home, _ = stored
-    url = _copy(stored, tmp_path)
-    store = Store.open(url, home)
-    tree = store.load_tree()
-    point = tree.space.point({k: str(v) for k, v in WORK.items()})
-    for want in (["RadioOff"], ["RadioOff", "LampOn"], ["RadioOff"]):
-        core.correct(store, tree, Correction.whole("kim", point, want))
+    url, store, tree, point = _kim_corrected(
+        stored, tmp_path, [["RadioOff"], ["RadioOff", "LampOn"], ["RadioOff"]]
+    )
     before = tree.predict_one(point, "kim")
     store.close()
     store = Store.open(url, home)  # the restart: kim's corrections read, her layer not learned
@@ -397,12 +407,9 @@ def test_a_user_s_layer_is_kept_and_a_restart_learns_only_the_corrections_after_
     learns the corrections made since; it answers as a layer learned from the first would.
     Another build's snapshot, or a damaged one, is not used."""
     home, _ = stored
-    url = _copy(stored, tmp_path)
-    store = Store.open(url, home)
-    tree = store.load_tree()
-    point = tree.space.point({k: str(v) for k, v in WORK.items()})
-    for want in (["RadioOff"], ["RadioOff", "LampOn"], ["LampOn"]):
-        core.correct(store, tree, Correction.whole("kim", point, want))
+    url, store, tree, point = _kim_corrected(
+        stored, tmp_path, [["RadioOff"], ["RadioOff", "LampOn"], ["LampOn"]]
+    )
     tree.layers.keep("kim")
     (kept,) = tree.layers.snapshots.folder.iterdir()
     assert kept.stat().st_mode & 0o777 == 0o600

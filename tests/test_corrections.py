@@ -161,9 +161,8 @@ def test_a_noisy_household_stream_is_the_same_in_every_process():
     """The skips are drawn over the services in order: a set's order changes with the hash seed
     of the process, and the benchmark's figures changed from run to run with it."""
     import hashlib
-    import os
-    import subprocess
-    import sys
+
+    from processes import outputs_by_hash_seed
 
     code = (
         "import hashlib; from homecog.evaluation.households import make_household; "
@@ -171,16 +170,7 @@ def test_a_noisy_household_stream_is_the_same_in_every_process():
         "h = make_household(load_home('paper'), 'wishes', seed=0); "
         "print(hashlib.sha256(repr([sorted(e.wanted) for e in h.stream(300, seed=0)]).encode()).hexdigest())"
     )
-    digests = {
-        subprocess.run(
-            [sys.executable, "-c", code],
-            env={**os.environ, "PYTHONHASHSEED": str(hash_seed)},
-            capture_output=True,
-            text=True,
-            check=True,
-        ).stdout.strip()
-        for hash_seed in (1, 2, 3)
-    }
+    digests = outputs_by_hash_seed(code, (1, 2, 3))
     from homecog.home import load_home
 
     events = make_household(load_home("paper"), "wishes", seed=0).stream(300, seed=0)

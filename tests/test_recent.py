@@ -8,6 +8,7 @@ from dataclasses import replace
 from datetime import datetime, timedelta
 
 from knowledge_fixtures import tree
+from processes import outputs_by_hash_seed
 
 from homecog.home import load_home
 from homecog.home.recent import Recent, RecentPast, recent_names, span
@@ -130,10 +131,6 @@ def test_how_long_ago_a_device_switched_by_the_services_or_by_its_state():
 def test_a_moment_wanting_a_device_both_ways_is_the_same_past_in_every_process():
     """Two wanted services that set one device each way (an inconsistent wish): the device's
     state and switch are taken in one order, whatever the process's hash seed."""
-    import os
-    import subprocess
-    import sys
-
     code = (
         "from datetime import datetime, timedelta; from homecog.home import load_home; "
         "from homecog.home.recent import RecentPast; home = load_home('paper'); past = RecentPast(home); "
@@ -143,14 +140,5 @@ def test_a_moment_wanting_a_device_both_ways_is_the_same_past_in_every_process()
         "at = past.at(t + timedelta(minutes=21), {}); "
         "print(at.since_switched('lamp'), at.since_switched('ceiling_light'))"
     )
-    answers = {
-        subprocess.run(
-            [sys.executable, "-c", code],
-            env={**os.environ, "PYTHONHASHSEED": str(seed)},
-            capture_output=True,
-            text=True,
-            check=True,
-        ).stdout.strip()
-        for seed in range(6)
-    }
+    answers = outputs_by_hash_seed(code, range(6))
     assert len(answers) == 1 and answers != {""}
