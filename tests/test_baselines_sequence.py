@@ -217,7 +217,16 @@ def test_replay_writes_every_answer_to_the_predictions_file(tmp_path, capsys):
     assert len(lines) == data["events"] == 60
     order = load_home(STUDIO).service_names
     for i, (line, (stamp, services)) in enumerate(zip(lines, rows, strict=True), start=1):
-        assert list(line) == ["event", "timestamp", "truth", "frequency", "ha_usage", "markov"]
+        assert list(line) == [
+            "event",
+            "timestamp",
+            "truth",
+            "frequency",
+            "ha_usage",
+            "markov",
+            "probabilities",
+        ]
+        assert list(line["probabilities"]) == ["frequency", "ha_usage", "markov"]
         assert (line["event"], line["timestamp"], line["truth"]) == (i, stamp, services)
         for name in ("frequency", "ha_usage", "markov"):
             assert line[name] == sorted(line[name], key=order.index)
