@@ -48,6 +48,7 @@ from homecog.robot.journal import Journal
 from homecog.robot.moments import Moments
 from homecog.robot.pacing import Pacing
 from homecog.robot.plans import plan_request
+from homecog.robot.review import Pending
 
 log = logging.getLogger("homecog.robot")
 #: what the household's hands taught: switches, undos, situations lived with the devices as left
@@ -89,6 +90,7 @@ class Runtime:
         self.holds = Holds(self.home, hold=self.household.hold)
         self.pacing = Pacing(self.home)
         self.journal = Journal()
+        self.pending = Pending()
         self.guidance = Guidance(self.home, self.household, self.journal, self._learn, self._point_now)
         body = self.robot if isinstance(self.source, SimulatedHome) and self.home.layout is not None else None
         self.actor = Actor(
@@ -151,6 +153,7 @@ class Runtime:
         self.keep_fresh()
         with self.lock:
             answer = self.tree.explain_one(point, user=user)
+        self.pending.shown(user, point, answer.services)  # what the user may answer yes or no to
         return orjson.dumps(answer)
 
     def keep_fresh(self) -> None:
@@ -169,8 +172,7 @@ class Runtime:
     def correct(self, c: Correction) -> dict[str, Any]:
         """Learn and store an explicit correction (the knowledge core commits it, then learns
         it); the store's log keeps it (and the history). Returns what it stored and changed."""
-        if not self.household.knows(c.user):
-            raise ContextError(f"user {c.user!r}: not one of the household ({self.household.names()})")
+        self.household.member(c.user)
         outcome = core.correct(self.store, self.tree, c, self.lock)  # the lock only off the database
         experiences = self.store.experience_count()  # outside the lock: cognition need not wait
         self.publish("correction", correction_event(outcome))
