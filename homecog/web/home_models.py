@@ -6,17 +6,18 @@ unit, each device's room, the household's default user.
 >>> out = home_out(load_home("paper"))
 >>> out.household.default_user, [(d.name, d.room) for d in out.devices][:2]
 ('default', [('window', 'living_room'), ('curtain', 'living_room')])
->>> [(f.name, f.unit) for f in out.features][1:3]
-[('temperature', '°C'), ('illumination', 'lx')]
+>>> [(f.name, f.unit) for f in out.features][1:3], out.features[1].bins
+([('temperature', '°C'), ('illumination', 'lx')], [[None, 25.0], [25.0, 30.0], [30.0, None]])
 """
 
 from __future__ import annotations
 
+import math
 from typing import Literal
 
 from pydantic import BaseModel, Field
 
-from homecog.home.model import Device, Home
+from homecog.home.model import Device, Feature, Home
 
 
 class FeatureOut(BaseModel):
@@ -24,6 +25,10 @@ class FeatureOut(BaseModel):
     kind: Literal["clock", "numeric", "categorical"]
     values: list[str] = Field(description="The bins (clock, numeric) or the values, in code order.")
     unit: str | None
+    bins: list[list[float | None]] | None = Field(
+        description="Per value of a clock or numeric feature, its half-open interval [low, high) "
+        "(hours for a clock, where low > high wraps midnight; null: no end); null for a categorical one."
+    )
 
 
 class DeviceOut(BaseModel):
@@ -82,6 +87,13 @@ def device_room(home: Home, device: Device) -> str | None:
     return layout.room_at(layout.places[device.name])
 
 
+def _bins(f: Feature) -> list[list[float | None]] | None:
+    """A feature's bins as JSON takes them: an infinite end as null."""
+    if f.bins is None:
+        return None
+    return [[None if math.isinf(x) else x for x in b] for b in f.bins]
+
+
 def household_out(home: Home) -> HouseholdOut:
     """The household's default user and, where the home names them, its users."""
     h = home.household
@@ -95,7 +107,8 @@ def home_out(home: Home) -> HomeOut:
     return HomeOut(
         name=home.name,
         features=[
-            FeatureOut(name=f.name, kind=f.kind, values=list(f.values), unit=f.unit) for f in home.features
+            FeatureOut(name=f.name, kind=f.kind, values=list(f.values), unit=f.unit, bins=_bins(f))
+            for f in home.features
         ],
         devices=[DeviceOut(name=d.name, room=device_room(home, d), iot=d.iot) for d in home.devices],
         services=[ServiceOut(name=s.name, category=s.category) for s in home.services],
