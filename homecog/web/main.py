@@ -14,6 +14,7 @@
 ``GET /api/history``      corrections so far and how the robot's agreement with users grew
 ``GET /api/actions``      what the robot did lately, when and why; what the household did
 ``POST /api/actions/…``   ``/{id}/undo``: switch back what it did, learned as a rejection
+``GET /api/switches``     the household's switches by hand and undos, day by day
 ``GET /api/events``       a live stream of server-sent events: context, correction, action
 ``POST /api/session``     the token kept in an HttpOnly cookie for a browser (the page's way)
 ========================  ===================================================================

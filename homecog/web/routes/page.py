@@ -61,6 +61,7 @@ HEADERS = {
 
 @router.get("/", response_class=HTMLResponse, include_in_schema=False)
 async def index() -> HTMLResponse:
-    """The HMI: the home now, the robot's services and why, the user's services, the plan,
-    the corrections; one page that works on a phone."""
+    """The HMI: the robot's suggestions each with a yes or no, the home now room by room,
+    the plan when asked for, what the robot did, the household's switches per day, the
+    corrections; one page that works on a phone."""
     return HTMLResponse(PAGE, headers=HEADERS)
