@@ -14,7 +14,7 @@ function switchOf(s, undone) {
 function actionRow(a) {
   const undone = new Map(a.undone.map((u) => [u.device, u.by]));
   const isUndone = undone.size > 0 || a.undone_here || undoneHere.has(a.id);
-  const when = [a.home_time ? a.home_time + " in the home" : null, clock(a.at), "for " + a.user].filter(Boolean).join(" · ");
+  const when = [a.home_time ? `${a.home_time} in the home (${clock(a.at)} here)` : clock(a.at), "for " + a.user].join(" · ");
   const switches = a.switches.map((s) => switchOf(s, undone));
   const what = switches.length ? switches : [el("span", { class: "why" }, a.actions.map(step).join("; ") || "no device switched")];
   if (isUndone && !undone.size) what.push(" ", el("span", { class: "badge undone" }, "undone here"));
