@@ -116,7 +116,7 @@ def test_the_page_shows_live_context_and_takes_a_correction(server, tmp_path):
         # the plan of the services, when asked for, drawn on the floor plan: the robot walks to
         # the desk lamp
         page.click("#plan-button")
-        expect(page.locator("#plan > li")).to_have_count(2)
+        expect(page.locator("#plan > li")).to_have_count(2, timeout=60_000)  # the planner starts
         expect(page.locator("#trajectory")).to_be_visible()
         expect(page.locator("#trajectory rect.room")).to_have_count(2)  # the studio and the bath
         expect(page.locator("#route")).to_contain_text("m driven")

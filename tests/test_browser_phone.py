@@ -158,7 +158,9 @@ def test_thirty_devices_and_five_suggestions_fit_a_phone(flat):
         checked = check_layout(page)
 
         page.click("#plan-button")  # the plan, asked for, and its path on the floor plan
-        expect(page.locator("#plan > li")).to_have_count(5)
+        # (the planner's process starts at the first plan, at the lowest priority: on a busy
+        # machine of two cores that can take a while)
+        expect(page.locator("#plan > li")).to_have_count(5, timeout=60_000)
         expect(page.locator("#route")).to_contain_text("m driven")
         checked += check_layout(page)
 
@@ -199,7 +201,7 @@ def living_family(directory: Path, speed: float) -> Runtime:
 
 def test_five_pages_on_a_living_home_get_no_error_answer(tmp_path):
     """Five pages open on a home living at 120 times real speed (its household switching by
-    hand, the robot acting, the context changing every second) for 45 s, each asking for the
+    hand, the robot acting, the context changing every second) for 30 s, each asking for the
     plan twice, all five at once: no answer is an error, and a plan is asked for only when a
     person asks (a page that planned at every change of the home got 429s with two pages open)."""
     from playwright.sync_api import expect, sync_playwright
@@ -225,13 +227,13 @@ def test_five_pages_on_a_living_home_get_no_error_answer(tmp_path):
             for page in pages:
                 expect(page.locator("#status")).to_have_text("live", timeout=20_000)
             start, asked = time.monotonic(), 0
-            for when in (10, 30):  # seconds after the pages are live
+            for when in (8, 20):  # seconds after the pages are live
                 time.sleep(max(0, start + when - time.monotonic()))
                 for page in pages:
                     if page.locator("#plan-button").is_enabled():
                         page.locator("#plan-button").click()
                         asked += 1
-            time.sleep(max(0, start + 45 - time.monotonic()))
+            time.sleep(max(0, start + 30 - time.monotonic()))
             followed = [int(page.evaluate("document.body.dataset.cognitions")) for page in pages]
             chromium.close()
     finally:
@@ -240,10 +242,10 @@ def test_five_pages_on_a_living_home_get_no_error_answer(tmp_path):
     assert errors == [] and problems == []
     plans = [a for a in answers if a[2].endswith("/api/plan")]
     assert asked >= 5 and len(plans) == asked  # one plan per click, none at a change of the home
-    assert min(followed) >= 20, followed  # every page followed the living home
+    assert min(followed) >= 10, followed  # every page followed the living home
     assert runtime.household_switches > 0 and runtime.journal.recent(1)  # the household and the robot lived
-    per_minute = len(answers) / 5 / 0.75
+    per_minute = len(answers) / 5 / 0.5
     print(
-        f"5 pages, 45 s: {len(answers)} answers ({per_minute:.0f} a page a minute), "
+        f"5 pages, 30 s: {len(answers)} answers ({per_minute:.0f} a page a minute), "
         f"{len(plans)} plans, 0 errors"
     )
