@@ -94,6 +94,11 @@ class FixedContextError(HomecogError):
     """The context comes from a source that cannot be set by hand (a broker, Home Assistant)."""
 
 
+class NotPendingError(HomecogError):
+    """An answer (yes or no) to a proposal the robot no longer puts to that user there: another
+    context since, answered already, or never proposed (:mod:`homecog.robot.review`)."""
+
+
 class SettingsError(HomecogError):
     """A setting of the server that is out of range."""
 

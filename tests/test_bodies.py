@@ -54,8 +54,7 @@ def test_a_switch_the_home_refuses_fails_the_action_and_acting_replans(paper: Ho
     assert result.achieved and calls == [("lamp", True), ("lamp", True)]
     assert body.result().actions == [
         ("move", "charger", "lamp"),
-        ("move", "lamp", "lamp"),
-        ("switch_by_hand", "lamp", "on"),
+        ("switch_by_hand", "lamp", "on"),  # replanned at the lamp: no move from the lamp to itself
     ]
 
 

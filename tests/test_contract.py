@@ -106,6 +106,8 @@ def test_every_error_is_documented_with_the_one_model(schema):
         ("POST", "/api/actions/{action}/undo"),
         ("GET", "/api/events"),
         ("POST", "/api/session"),
+        ("POST", "/api/answers"),
+        ("GET", "/api/switches"),
     }
     error = {"$ref": "#/components/schemas/ErrorOut"}
     for key, op in operations.items():
@@ -117,6 +119,7 @@ def test_every_error_is_documented_with_the_one_model(schema):
     assert set(operations["PUT", "/api/context"]["responses"]) == {"200", "409", "413", "422", "503"}
     assert set(operations["POST", "/api/plan"]["responses"]) == {"200", "409", "413", "422", "429"}
     assert set(operations["POST", "/api/session"]["responses"]) == {"204"}
+    assert set(operations["POST", "/api/answers"]["responses"]) == {"200", "409", "413", "422", "503"}
     events = operations["GET", "/api/events"]["responses"]["200"]["content"]
     assert list(events) == ["text/event-stream"]
     assert "security" not in operations["GET", "/api/home"]  # 127.0.0.1 without a token: open
@@ -244,6 +247,6 @@ def test_schemathesis_finds_nothing(studio_built, tmp_path, token):
     cases = suite.iter("testcase")
     names = sorted(c.get("name", "") for c in cases)
     operations = [n for n in names if n != "Stateful tests"]  # and the stateful phase, where it runs
-    assert len(operations) == 12, "\n".join(names)  # every operation
+    assert len(operations) == 14, "\n".join(names)  # every operation
     assert sum(int(s.get("failures", 0)) + int(s.get("errors", 0)) for s in suite.iter("testsuite")) == 0
     assert "No issues found" in run.stdout, run.stdout[-3000:]

@@ -303,7 +303,7 @@ def test_every_path_of_the_api_schemas_is_in_the_api_reference(tmp_path):
         store.close()
     served = operations(up) + operations(fleet_schema(token=True))
     served += operations(prefixed(one, "/api/homes/{home}"))
-    assert len(served) == 12 + 1 + 5 and "POST /api/actions/{action}/undo" in served
+    assert len(served) == 14 + 1 + 5 and "POST /api/actions/{action}/undo" in served
     text = (ROOT / "docs" / "api.md").read_text(encoding="utf-8")
     assert [op for op in served if f"`{op}" not in text] == []
     # and the reference names no operation the servers lack

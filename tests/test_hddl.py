@@ -33,6 +33,7 @@ ACTIONS = {
 TASKS = {"goto", "switch", "fetch", "fill", "deliver"}
 #: The domain's methods: each one's task and subtasks (every home's; one more per service).
 DOMAIN_METHODS = {
+    "already-there": ("goto", []),
     "goto-move": ("goto", ["move"]),
     "goto-stay": ("goto", ["stay"]),
     "by-iot-on": ("switch", ["switch-iot-on"]),

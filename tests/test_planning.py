@@ -110,13 +110,33 @@ def test_priority_order_and_the_tree_round_trip():
 def test_two_deliveries_fetch_the_cup_back_from_the_user():
     plan = plan_services(load_home("paper"), ["SendDrinks", "SendDrinks"], user="sofa")
     assert plan.actions[5:] == [
-        ("move", "sofa", "sofa"),
-        ("pick", "cup", "sofa"),
+        ("pick", "cup", "sofa"),  # the robot is with the user already: no move from sofa to sofa
         ("move", "sofa", "dispenser"),
         ("pour", "cup", "dispenser"),
         ("move", "dispenser", "sofa"),
         ("hand_over", "cup", "user"),
     ]
+
+
+def test_no_plan_moves_from_a_place_to_itself():
+    """A goto where the robot already is has nothing to do: over every pair of services of the
+    paper home, from every place the user can be, no plan has a zero-length move, every move
+    leaves from where the robot is, and the robot still ends where the plan sends it."""
+    home = load_home("paper")
+    domain = make_domain(home)
+    requests = [[a.name, b.name] for a, b in itertools.product(home.services, repeat=2)]
+    for where in home.feature("location").values:
+        for request in requests:
+            plan = plan_services(home, request, user=where, domain=domain)
+            here = plan.start.robot
+            for a in plan.actions:
+                if a[0] == "move":
+                    assert a[1] == here and a[2] != here, (where, request, plan.actions)
+                    here = a[2]
+            assert here == plan.state.robot
+    plan = plan_services(home, ["ChargeItSelf", "ChargeItSelf"], user="sofa", domain=domain)
+    assert plan.actions == [("dock", "charger"), ("dock", "charger")]  # the robot starts at the charger
+    assert plan.outline().splitlines()[:3] == ["ChargeItSelf", "  goto charger", "  1 dock charger"]
 
 
 def test_a_home_written_from_the_spec_plans_with_default_errands():

@@ -33,7 +33,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
-from homecog.errors import HomeFileError
+from homecog.errors import ContextError, HomeFileError
 from homecog.names import user_name_problem
 
 KINDS = ("explicit", "observed", "undo")
@@ -71,6 +71,11 @@ class Household:
         """Whether ``user`` is one of the household: with ``users``, one of its names or the
         default user; without, any user."""
         return self.users is None or user == self.default_user or user in self.users.values()
+
+    def member(self, user: str) -> None:
+        """:class:`ContextError` naming the household where ``user`` is not one of it."""
+        if not self.knows(user):
+            raise ContextError(f"user {user!r}: not one of the household ({self.names()})")
 
     def names(self) -> str:
         """The household's users, for a message (``any`` without ``users``)."""

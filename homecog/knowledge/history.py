@@ -15,8 +15,9 @@ One query, on the index of ``(kind, user, id)``, reads the latest ``limit`` of t
 from __future__ import annotations
 
 import json
+from collections import Counter
 from dataclasses import dataclass
-from datetime import UTC
+from datetime import UTC, date, datetime, timedelta
 from typing import Any
 
 from sqlalchemy import func, select
@@ -100,9 +101,7 @@ def correction_history(
             rows = conn.execute(latest).all()
             older, rows = len(rows) > limit, rows[:limit]
     except SQLAlchemyError as e:
-        orig = getattr(e, "orig", None) or e
-        first = (str(orig).strip().splitlines() or [type(orig).__name__])[0]
-        raise StoreError(f"database {redact(store.url)}: cannot use the database: {first}") from None
+        raise _unusable(store, e) from None
     corrections = []
     for row in reversed(rows):
         payload = json.loads(row.payload)
@@ -136,3 +135,72 @@ def agreement(history: History) -> list[Agreement]:
         agreed += c.agreed
         out.append(Agreement(n=n, user=c.user, agreed=c.agreed, rate=agreed / n))
     return out
+
+
+def _unusable(store: Store, e: SQLAlchemyError) -> StoreError:
+    """The store error that says why the database could not be read, in one line."""
+    orig = getattr(e, "orig", None) or e
+    first = (str(orig).strip().splitlines() or [type(orig).__name__])[0]
+    return StoreError(f"database {redact(store.url)}: cannot use the database: {first}")
+
+
+@dataclass(frozen=True)
+class SwitchDay:
+    """What the household did by hand on one day (the server's local date)."""
+
+    day: date
+    switches: int  # a person's switches of a device the robot learned from (undos by hand too)
+    undos: int  # the robot's actions undone, by hand or from the page
+
+
+#: the most correction rows one look at the days reads (a busy household's weeks)
+MAX_ROWS = 100_000
+
+
+def switches_per_day(store: Store, *, days: int = 14, today: date | None = None) -> list[SwitchDay]:
+    """The household's switches by hand and its undos of the robot's actions, per day, over the
+    last ``days`` days up to ``today`` (the server's local date), oldest first, days without any
+    included. Read from the experience log: an observed correction of a device is a person's
+    switch, an undo correction a switch back of the robot's (one per action undone, however many
+    services it rejected). Raises :class:`StoreError` when the database cannot be used.
+
+    >>> from homecog.home import load_home
+    >>> from homecog.knowledge.store import Store
+    >>> [d.switches for d in switches_per_day(Store.open("sqlite://", load_home("paper")), days=3)]
+    [0, 0, 0]
+    """
+    today = today or date.today()
+    first = today - timedelta(days=days - 1)
+    since = datetime.combine(first, datetime.min.time()).astimezone(UTC).replace(tzinfo=None)
+    switches: Counter[date] = Counter()
+    undone: set[tuple[date, object]] = set()
+    where = [ExperienceRow.home == store.home.name, ExperienceRow.kind == "correction"]
+    newest = (
+        select(ExperienceRow.created_at, ExperienceRow.payload)
+        .where(*where)
+        .order_by(ExperienceRow.id.desc())
+    )
+    try:
+        with store.engine.connect().execution_options(**{READ_ONLY: True}) as conn:
+            for at, payload in conn.execute(newest.limit(MAX_ROWS).execution_options(yield_per=500)):
+                if at < since:  # the log is in time order: the rest is older still
+                    break
+                day = at.replace(tzinfo=UTC).astimezone().date()
+                _count(json.loads(payload), day, switches, undone)
+    except SQLAlchemyError as e:
+        raise _unusable(store, e) from None
+    undos = Counter(day for day, _ in undone)
+    return [SwitchDay(d, switches[d], undos[d]) for d in (first + timedelta(days=i) for i in range(days))]
+
+
+def _count(
+    payload: dict[str, Any], day: date, switches: Counter[date], undone: set[tuple[date, object]]
+) -> None:
+    """Count one correction of the log: a person's switch, an undo, or neither."""
+    note, kind = payload.get("note") or {}, payload.get("kind", "explicit")
+    if kind == "observed" and "device" in note:
+        switches[day] += 1
+    elif kind == "undo":
+        undone.add((day, note.get("action")))
+        if note.get("by") == "person":
+            switches[day] += 1

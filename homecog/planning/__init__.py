@@ -8,8 +8,7 @@ CloseWindow
     1 switch_iot window off
 ChargeItSelf
   goto charger
-    2 move charger charger
-  3 dock charger
+  2 dock charger
 """
 
 from __future__ import annotations

@@ -25,7 +25,8 @@ Compound tasks and their methods, tried in order:
 * an interaction service by its errand (``layout.errands``): ``bring`` → ``fetch``, ``fill``
   (with ``pour``), ``deliver``; ``dock`` → ``goto``, ``dock``; ``say`` → ``goto`` the user,
   ``speak``; without an errand: ``goto`` the user and speak the service's name;
-* ``goto place`` → ``move`` from wherever the robot is.
+* ``goto place`` → nothing where the robot is already there (a plan has no move from a place
+  to itself), else ``move`` from wherever the robot is.
 
 >>> from homecog.home import load_home
 >>> from homecog.planning import plan_services
@@ -77,8 +78,9 @@ ACTIONS: tuple[ActionSchema, ...] = (
         "?origin - place ?target - place",
         pre=[("(robot-at ?origin)", AT % "origin")],
         effects=["(robot-at ?target)", "(not (robot-at ?origin))", "(not (docked))"],
-        # a move to where the robot is stays in the plan (the robot still has to make sure),
-        # but would delete and add (robot-at p) at once, which Aries takes for a conflict
+        # goto never plans a move to where the robot is (already_there), but the action takes
+        # one; in HDDL it would delete and add (robot-at p) at once, which Aries takes for a
+        # conflict
         variants=[("move", {}), ("stay", {"?target": "?origin"})],
     ),
     action(
@@ -140,6 +142,8 @@ TASKS: tuple[TaskSchema, ...] = (
 # Methods read the state when they are decomposed (left to right), so goto moves from wherever
 # the robot really is; they are tried in this order.
 METHOD_SCHEMAS: tuple[MethodSchema, ...] = (
+    # a goto where the robot already is has nothing to do: no zero-length move in a plan
+    method("already_there", "goto", pre=["(robot-at ?place)"]),
     method("goto", "goto", lets=["(robot-at ?here)"], subtasks=[("move", "?here", "?place")]),
     method("by_iot", "switch", pre=["(iot ?device)"], subtasks=[("switch_iot", "?device", "?setting")]),
     method(

@@ -48,6 +48,7 @@ from homecog.robot.journal import Journal
 from homecog.robot.moments import Moments
 from homecog.robot.pacing import Pacing
 from homecog.robot.plans import plan_request
+from homecog.robot.review import Pending
 
 log = logging.getLogger("homecog.robot")
 #: what the household's hands taught: switches, undos, situations lived with the devices as left
@@ -89,6 +90,7 @@ class Runtime:
         self.holds = Holds(self.home, hold=self.household.hold)
         self.pacing = Pacing(self.home)
         self.journal = Journal()
+        self.pending = Pending()
         self.guidance = Guidance(self.home, self.household, self.journal, self._learn, self._point_now)
         body = self.robot if isinstance(self.source, SimulatedHome) and self.home.layout is not None else None
         self.actor = Actor(
@@ -145,21 +147,19 @@ class Runtime:
         with core.reading(self.tree, self.lock, user) as tree:
             return tree.explain_one(point, user=user).as_dict()
 
-    def cognize_json(self, context: Mapping[str, object], user: str) -> bytes:
-        """:meth:`cognize` as JSON, the same object; orjson writes the dataclasses directly."""
+    def cognize_json(self, context: Mapping[str, object], user: str, *, wait: bool = True) -> bytes | None:
+        """:meth:`cognize` as JSON, the same object (orjson writes the dataclasses directly); its
+        services become the user's pending proposals. With ``wait`` false (the event loop's),
+        None where the answer would wait: the user's layer not learned yet, or a lock held."""
         point = self.space.point(context)
         self.keep_fresh()
-        with core.reading(self.tree, self.lock, user) as tree:
-            answer = tree.explain_one(point, user=user)
+        if wait:
+            with core.reading(self.tree, self.lock, user) as tree:
+                answer = tree.explain_one(point, user=user)
+        elif (answer := core.answer_now(self.tree, self.lock, point, user)) is None:
+            return None
+        self.pending.shown(user, point, answer.services)  # what the user may answer yes or no to
         return orjson.dumps(answer)
-
-    def cognize_now(self, context: Mapping[str, object], user: str) -> bytes | None:
-        """:meth:`cognize_json` where it need not wait (for the event loop), else None: the
-        user's layer not learned yet, or a lock held (a correction being learned or stored)."""
-        point = self.space.point(context)
-        self.keep_fresh()
-        answer = core.answer_now(self.tree, self.lock, point, user)
-        return None if answer is None else orjson.dumps(answer)
 
     def keep_fresh(self) -> None:
         """Where another process shares the database (``fresh`` seconds apart at most): the
@@ -177,8 +177,7 @@ class Runtime:
     def correct(self, c: Correction) -> dict[str, Any]:
         """Learn and store an explicit correction (the knowledge core commits it, then learns
         it); the store's log keeps it (and the history). Returns what it stored and changed."""
-        if not self.household.knows(c.user):
-            raise ContextError(f"user {c.user!r}: not one of the household ({self.household.names()})")
+        self.household.member(c.user)
         outcome = core.correct(self.store, self.tree, c, self.lock)  # the lock only off the database
         experiences = self.store.experience_count()  # outside the lock: cognition need not wait
         self.publish("correction", correction_event(outcome))

@@ -14,7 +14,7 @@ simulate --robot`` and ``homecog up --robot`` choose between.
 >>> plan = plan_services(home, ["CloseWindow", "ChargeItSelf"], user="sofa")
 >>> acting, run = carry_out(make_body("builtin", home), plan)
 >>> acting.achieved, [row["action"][0] for row in run.timeline], run.devices["window"]
-(True, ['switch_iot', 'move', 'dock'], False)
+(True, ['switch_iot', 'dock'], False)
 """
 
 from __future__ import annotations
@@ -84,7 +84,7 @@ class Preview:
     >>> home = load_home("paper")
     >>> run = Preview(home).run(plan_services(home, ["ChargeItSelf"], user="sofa"))
     >>> run.actions
-    [('move', 'charger', 'charger'), ('dock', 'charger')]
+    [('dock', 'charger')]
     """
 
     def __init__(self, home: Home, kind: str = "builtin") -> None:

@@ -1,8 +1,9 @@
-"""The HTTP contract of what the robot did and its undo: ``GET /api/actions`` and
-``POST /api/actions/{id}/undo``."""
+"""The HTTP contract of what the robot did and its undo, and of what the household did by hand:
+``GET /api/actions``, ``POST /api/actions/{id}/undo`` and ``GET /api/switches``."""
 
 from __future__ import annotations
 
+from datetime import date
 from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field
@@ -66,3 +67,13 @@ class UndoOut(BaseModel):
     switched: list[SwitchOut] = Field(description="The devices switched back.")
     rejected: list[str] = Field(description="The services learned as not wanted where the robot acted.")
     user: str
+
+
+class SwitchDayOut(BaseModel):
+    day: date = Field(description="The day, in the server's local time.")
+    switches: int = Field(description="Devices people switched by hand that day (undos by hand too).")
+    undos: int = Field(description="The robot's actions undone that day, by hand or from the page.")
+
+
+class SwitchesOut(BaseModel):
+    days: list[SwitchDayOut] = Field(description="Oldest first; every day of the range, none left out.")

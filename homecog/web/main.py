@@ -8,10 +8,13 @@
 ``POST /api/cognize``     ``{"context": {...}, "user": ...}`` → services, unknown, explanations
 ``POST /api/corrections`` ``{"context": {...}, "want": [...], "user": ...}`` → added, rejected
                           (or ``"change": {"S1": "add", "S2": "reject"}``: those services only)
+``POST /api/answers``     ``{"context", "service", "answer": "yes"|"no", "user"}``: one proposal
+                          answered, learned as that service added or rejected
 ``POST /api/plan``        ``{"services": [...], "context": {...}}`` → actions, tree, simulation
 ``GET /api/history``      corrections so far and how the robot's agreement with users grew
 ``GET /api/actions``      what the robot did lately, when and why; what the household did
 ``POST /api/actions/…``   ``/{id}/undo``: switch back what it did, learned as a rejection
+``GET /api/switches``     the household's switches by hand and undos, day by day
 ``GET /api/events``       a live stream of server-sent events: context, correction, action
 ``POST /api/session``     the token kept in an HttpOnly cookie for a browser (the page's way)
 ========================  ===================================================================
@@ -42,6 +45,7 @@ from homecog.web.models import HomeModels
 from homecog.web.planner import PLANNER
 from homecog.web.routes import (
     actions,
+    answers,
     cognize,
     context,
     corrections,
@@ -108,6 +112,7 @@ def create_app(runtime: Runtime, settings: Settings | None = None, *, fleet: boo
     app.include_router(history.router, **guarded)
     if fleet:
         return CrossSiteGuard(BodyLimit(app, limit=settings.max_body))
+    app.include_router(answers.router(models), **guarded)
     app.include_router(source.router, **guarded)
     app.include_router(actions.router, **guarded)
     app.include_router(session.router, **guarded)

@@ -67,83 +67,6 @@ class ErrorOut(BaseModel):
     detail: str = Field(description="What is wrong, in one line.", examples=["missing radio"])
 
 
-# -- the home ----------------------------------------------------------------------------------
-class FeatureOut(BaseModel):
-    name: str
-    kind: Literal["clock", "numeric", "categorical"]
-    values: list[str] = Field(description="The bins (clock, numeric) or the values, in code order.")
-    unit: str | None
-
-
-class DeviceOut(BaseModel):
-    name: str
-    room: str | None
-    iot: bool = Field(description="Switched by an IoT command; otherwise the robot goes and does it.")
-
-
-class ServiceOut(BaseModel):
-    name: str
-    category: str
-
-
-class LayoutOut(BaseModel):
-    """The floor plan in metres, y up."""
-
-    size: list[float] = Field(description="[width, height]")
-    rooms: dict[str, list[float]] = Field(description="Rectangles [x0, y0, x1, y1].")
-    walls: list[list[float]] = Field(description="Segments [x0, y0, x1, y1].")
-    doors: list[list[float]] = Field(description="Segments [x0, y0, x1, y1].")
-    places: dict[str, list[float]] = Field(description="Points [x, y].")
-    robot: str = Field(description="The place the robot starts at.")
-
-
-class HomeOut(BaseModel):
-    name: str
-    features: list[FeatureOut]
-    devices: list[DeviceOut]
-    services: list[ServiceOut]
-    layout: LayoutOut | None = Field(description="null for a home without a floor plan.")
-
-
-def home_out(home: Home) -> HomeOut:
-    """The home as ``GET /api/home`` gives it."""
-    layout = home.layout
-    return HomeOut(
-        name=home.name,
-        features=[
-            FeatureOut(name=f.name, kind=f.kind, values=list(f.values), unit=f.unit) for f in home.features
-        ],
-        devices=[DeviceOut(name=d.name, room=d.room, iot=d.iot) for d in home.devices],
-        services=[ServiceOut(name=s.name, category=s.category) for s in home.services],
-        layout=None
-        if layout is None
-        else LayoutOut(
-            size=list(layout.size),
-            rooms={name: list(r) for name, r in layout.rooms.items()},
-            walls=[list(w) for w in layout.walls],
-            doors=[list(d) for d in layout.doors],
-            places={name: list(p) for name, p in layout.places.items()},
-            robot=layout.robot,
-        ),
-    )
-
-
-class SourceOut(BaseModel):
-    """Where the context comes from and whether it is connected; a real home's source says more
-    (absent fields: the source does not report them)."""
-
-    kind: str = Field(description="simulated, manual, mqtt or home_assistant")
-    connected: bool
-    url: str | None = None
-    since: float | None = Field(None, description="Connected since: seconds since 1970 (UTC).")
-    version: str | None = Field(None, description="Home Assistant's version.")
-    reconnects: int | None = None
-    missing: list[str] | None = Field(None, description="Features and devices without a value yet.")
-    skipped: int | None = Field(None, description="States that could not be read, skipped.")
-    skipped_switches: int | None = None
-    last_error: str | None = None
-
-
 # -- answers -----------------------------------------------------------------------------------
 class EvidenceOut(BaseModel):
     agreed: int = Field(
@@ -320,6 +243,7 @@ class HomeModels:
     correction_in: type[BaseModel]
     plan_in: type[BaseModel]
     context_in: type[BaseModel]
+    answer_in: type[BaseModel]
 
     @classmethod
     def of(cls, home: Home) -> HomeModels:
@@ -334,8 +258,9 @@ class HomeModels:
         change.__pydantic_config__ = STRICT
         service: Any = Literal[tuple(home.service_names)]  # type: ignore[valid-type]
         in_context = Field(description="Every feature and device of the home.")
+        default_user = (User, home.household.default_user)  # whom a body naming nobody speaks for
         cognize_in = create_model(
-            "CognizeIn", __config__=STRICT, context=(context, in_context), user=(User, "default")
+            "CognizeIn", __config__=STRICT, context=(context, in_context), user=default_user
         )
         correction_in = create_model(
             "CorrectionIn",
@@ -360,7 +285,7 @@ class HomeModels:
                     "other service keeps what it had.",
                 ),
             ),
-            user=(User, "default"),
+            user=default_user,
         )
         plan_in = create_model(
             "PlanIn",
@@ -376,7 +301,19 @@ class HomeModels:
             __config__=STRICT,
             values=(change, Field(description="Features or devices to change.")),
         )
-        return cls(home, context, change, service, cognize_in, correction_in, plan_in, context_in)
+        answer_in = create_model(
+            "AnswerIn",
+            __config__=STRICT,
+            __doc__="A user's yes or no to one of the robot's pending proposals in the context.",
+            context=(context, Field(description="The context the robot proposed the service in.")),
+            service=(service, Field(description="One service the robot proposed to the user there.")),
+            answer=(
+                Literal["yes", "no"],
+                Field(description='"yes": wanted (learned as an addition); "no": not wanted here.'),
+            ),
+            user=default_user,
+        )
+        return cls(home, context, change, service, cognize_in, correction_in, plan_in, context_in, answer_in)
 
 
 def _feature_type(f: Feature) -> Any:

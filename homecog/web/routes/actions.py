@@ -1,5 +1,6 @@
 """``GET /api/actions`` and ``POST /api/actions/{id}/undo``: what the robot did, when and why,
-and its undo (the devices switched back, the services learned as rejections where it acted)."""
+and its undo (the devices switched back, the services learned as rejections where it acted);
+``GET /api/switches``: what the household switched by hand, day by day."""
 
 from __future__ import annotations
 
@@ -8,8 +9,9 @@ from typing import Annotated, Any
 from fastapi import APIRouter, HTTPException, Path, Query
 
 from homecog.errors import FixedContextError
-from homecog.web.action_models import ActionsOut, UndoIn, UndoOut
-from homecog.web.deps import RuntimeDep
+from homecog.knowledge.history import switches_per_day
+from homecog.web.action_models import ActionsOut, SwitchDayOut, SwitchesOut, UndoIn, UndoOut
+from homecog.web.deps import RuntimeDep, StoreDep
 from homecog.web.errors import responses
 from homecog.web.models import ErrorOut
 
@@ -46,3 +48,15 @@ def undo(
         raise HTTPException(404, detail=str(e)) from None
     except FixedContextError as e:
         raise HTTPException(409, detail=str(e)) from None
+
+
+@router.get("/api/switches", response_model=SwitchesOut, responses=responses(422, 503))
+def switches(
+    store: StoreDep,
+    days: Annotated[int, Query(ge=1, le=92, description="This many days, up to today.")] = 14,
+) -> SwitchesOut:
+    """Per day, the devices the household switched by hand and the robot's actions it undid,
+    read from the experience log (they outlive the server). 503 when the database cannot be
+    used."""
+    found = switches_per_day(store, days=days)
+    return SwitchesOut(days=[SwitchDayOut(day=d.day, switches=d.switches, undos=d.undos) for d in found])

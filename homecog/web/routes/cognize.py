@@ -85,7 +85,7 @@ async def answer(request: Request, model: type[BaseModel]) -> bytes | None:
     try:
         asked = model.model_validate_json(body)
         context, user = asked.context, asked.user  # type: ignore[attr-defined]
-        answered = runtime.cognize_now(context, user)
+        answered = runtime.cognize_json(context, user, wait=False)
         if answered is None:  # a lock held or the user's layer to learn: wait off the loop
             return await asyncio.to_thread(runtime.cognize_json, context, user)
         return answered

@@ -5,7 +5,7 @@ from __future__ import annotations
 from fastapi import APIRouter
 
 from homecog.web.deps import RuntimeDep
-from homecog.web.models import HomeOut, home_out
+from homecog.web.home_models import HomeOut, home_out
 
 router = APIRouter(tags=["home"])
 

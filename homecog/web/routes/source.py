@@ -8,7 +8,7 @@ from typing import Any
 from fastapi import APIRouter
 
 from homecog.web.deps import RuntimeDep
-from homecog.web.models import SourceOut
+from homecog.web.home_models import SourceOut
 
 router = APIRouter(tags=["context"])
 
