@@ -120,3 +120,20 @@ def test_a_slow_stream_reports_progress_by_the_clock(monkeypatch):
     monkeypatch.setattr(replay_module, "PROGRESS_SECONDS", 0.0)
     replay_module.replay_rows(home, rows, methods=["frequency"], progress=said.append)
     assert said == [f"{i:,} of 30 events" for i in range(1, 31)]
+
+
+def test_the_paper_mode_learns_a_correction_as_the_paper_does():
+    """In a replay ``paper`` learns each event as its Algorithm 2 learns a sample: into its
+    one-cluster-per-node tree, for everyone; ``multi`` through the user's own layer."""
+    from homecog.evaluation.methods import TreeMethod
+    from homecog.knowledge.ihdr import IHDRTree
+
+    home = load_home(STUDIO)
+    s = next(x for x in random_scenarios(home, 50, seed=3, truth=load_home(KIM)) if x.truth)
+    for mode in ("paper", "multi"):
+        method = TreeMethod(IHDRTree(home, mode=mode), user="household")
+        method.learn_one(s.point, sorted(s.truth))
+        learned_shared = method.tree.n_samples == 1 and method.tree.users == []
+        assert learned_shared == (mode == "paper")
+        assert (method.tree.n_clusters("household") == 1) == (mode == "multi")
+        assert set(method.predict_one(s.point)) == set(s.truth)  # what it learned, it says

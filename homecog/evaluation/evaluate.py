@@ -81,8 +81,11 @@ class MethodResult:
         }
 
 
-def evaluate(method: Method, scenarios: Sequence[Scenario], services: Sequence[str]) -> MethodResult:
-    """Micro, scenario-averaged and per-service figures of a method."""
+def evaluate(
+    method: Method, scenarios: Sequence[Scenario], services: Sequence[str], *, calibrate: bool = True
+) -> MethodResult:
+    """Micro, scenario-averaged and per-service figures of a method (and with ``calibrate``,
+    those of its probabilities)."""
     start = time.perf_counter()
     predicted = [method.predict_one(s.point) for s in scenarios]
     seconds = time.perf_counter() - start
@@ -91,10 +94,10 @@ def evaluate(method: Method, scenarios: Sequence[Scenario], services: Sequence[s
     averaged = metrics.averaged(predicted, truths)
     per_service = metrics.per_service(predicted, truths, services)
     calibrated = Calibrated(services)  # its probabilities, calibrated scenario by scenario
-    for s, answer, truth in zip(scenarios, predicted, truths, strict=True):
+    for s, answer, truth in zip(scenarios, predicted, truths, strict=True) if calibrate else ():
         calibrated.step(scores_of(method, s.point, answer), set(truth))
     return MethodResult(
-        calibration=calibrated.figures(),
+        calibration=calibrated.figures() if calibrate else {},
         micro=micro,
         averaged=averaged,
         per_service=per_service,
@@ -135,7 +138,7 @@ def correction_curve(
             names = home.service_names
 
             def measure(done: int) -> dict[str, float]:
-                r = evaluate(method, scenarios, names).micro
+                r = evaluate(method, scenarios, names, calibrate=False).micro
                 return {
                     "corrections": done,
                     "precision": round(r["precision"], 6),

@@ -83,8 +83,13 @@ class TreeMethod:
         return self.tree.scores_one(point, user=self.user)
 
     def learn_one(self, point: Point, wanted: Sequence[str]) -> None:
-        """A correction by the user (the same path as ``homecog correct``, in memory)."""
-        self.tree.correct_one(point, list(wanted), user=self.user)
+        """A correction by the user: ``multi`` through the user's layer (the same path as
+        ``homecog correct``, in memory); ``paper`` as the paper learns one (its Algorithm 2), the
+        corrected services a sample of its one-cluster-per-node tree."""
+        if self.tree.mode == "paper":
+            self.tree.learn_one(point, list(wanted))
+        else:
+            self.tree.correct_one(point, list(wanted), user=self.user)
 
 
 def _priorities(samples: SampleSet) -> np.ndarray:

@@ -1,7 +1,8 @@
 """``homecog replay``: prequential evaluation of an event stream.
 
-Events are read in order; every method first predicts a row, then learns it: the trees as a
-correction by the household (the same path as ``homecog correct``, in memory), the Hoeffding
+Events are read in order; every method first predicts a row, then learns it: ``multi`` as a
+correction by the household (the same path as ``homecog correct``, in memory), ``paper`` as the
+paper learns a correction (a sample of its one-cluster-per-node tree), the Hoeffding
 trees and K-means by ``learn_one`` (K-means: every event joins its nearest cluster, and its
 centroids move every few dozen events; :class:`~homecog.evaluation.methods.KMeansMethod`). The
 simple online learners (``frequency``, ``naive_bayes``, ``ha_usage``, ``markov``) start from
